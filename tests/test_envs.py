@@ -1,0 +1,87 @@
+"""The registry, the episode wrapper, and the concave bandit's exact answers."""
+
+import math
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from brax.envs.base import Env, State
+
+from wcac_jax import envs
+from wcac_jax.envs import concave_bandit as cb
+from wcac_jax.envs.wrappers import EpisodeWrapper
+
+
+def test_registry_errors_name_the_valid_choices():
+    with pytest.raises(ValueError, match="'nope'.*concave_bandit"):
+        envs.make("nope")
+    with pytest.raises(ValueError, match="'colour'.*concave_bandit"):
+        envs.make("concave_bandit", colour="red")
+    assert "concave_bandit" in envs.names()
+
+
+def test_concave_bandit_rewards_by_hand():
+    env = envs.make("concave_bandit")
+    assert env.num_objectives == 2 and len(env.objective_names) == 2
+    state = jax.jit(env.reset)(jax.random.key(0))
+    nxt = jax.jit(env.step)(state, jnp.array([0.0]))  # theta = pi/4
+    np.testing.assert_allclose(nxt.reward, [1 - math.sqrt(0.5)] * 2, rtol=1e-6)
+    assert float(nxt.done) == 1.0
+    ends = jax.vmap(env.step, (None, 0))(state, jnp.array([[-1.0], [1.0], [5.0]]))
+    np.testing.assert_allclose(ends.reward, [[1, 0], [0, 1], [0, 1]], atol=1e-6)
+
+
+def test_wc_optimum_solves_the_balance_equation():
+    for pref in ([0.5, 0.5], [0.8, 0.2], [0.1, 0.9], [0.3, 0.7]):
+        t = float(cb.wc_optimum(jnp.array(pref), cb.DEFAULT_J_UB))
+        z1, z2 = cb.DEFAULT_J_UB
+        assert pref[0] * (z1 - 1 + math.sin(t)) == pytest.approx(pref[1] * (z2 - 1 + math.cos(t)))
+    assert float(cb.wc_optimum(jnp.array([0.5, 0.5]))) == pytest.approx(math.pi / 4, abs=1e-6)
+    assert float(cb.wc_optimum(jnp.array([1.0, 0.0]))) == pytest.approx(0.0, abs=1e-6)
+    assert float(cb.wc_optimum(jnp.array([0.0, 1.0]))) == pytest.approx(math.pi / 2, abs=1e-6)
+    front = cb.exact_front(11)
+    assert front.shape == (11, 2) and np.all(np.diff(front[:, 0]) < 0)
+
+
+class _Counter(Env):
+    """obs = position; +1 per step; falls (terminal) when it reaches 3 if `fall`."""
+
+    num_objectives = 2
+
+    def __init__(self, fall):
+        self.fall = fall
+
+    def reset(self, rng):
+        z = jnp.zeros(())
+        return State(pipeline_state={"x": z}, obs=jnp.zeros(1), reward=jnp.zeros(2), done=z)
+
+    def step(self, state, action):
+        x = state.pipeline_state["x"] + 1
+        done = jnp.where(self.fall & (x >= 3), 1.0, 0.0)
+        return state.replace(
+            pipeline_state={"x": x}, obs=x[None], reward=jnp.stack([x, -x]), done=done
+        )
+
+    observation_size = 1
+    action_size = 1
+    backend = "none"
+
+
+@pytest.mark.parametrize("fall", [False, True])
+def test_episode_wrapper_time_limit_terminal_and_auto_reset(fall):
+    env = EpisodeWrapper(_Counter(fall), episode_length=3 if not fall else 10)
+    state = env.reset(jax.random.key(0))
+    step = jax.jit(env.step)
+    for _ in range(3):
+        state = step(state, jnp.zeros(1))
+    assert float(state.done) == 1.0
+    assert float(state.info["truncation"]) == (0.0 if fall else 1.0)
+    assert float(state.info["terminal"]) == (1.0 if fall else 0.0)
+    assert float(state.info["final_obs"][0]) == 3.0  # true next observation kept
+    assert float(state.obs[0]) == 0.0  # auto-reset
+    np.testing.assert_allclose(state.reward, [3.0, -3.0])
+    state = step(state, jnp.zeros(1))
+    assert float(state.done) == 0.0 and float(state.obs[0]) == 1.0
+    with pytest.raises(ValueError, match="episode_length"):
+        EpisodeWrapper(_Counter(fall), 0)

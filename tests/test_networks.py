@@ -1,0 +1,90 @@
+"""The paper's network, the MLP, the policy head and the projection, by hand."""
+
+import math
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from wcac_jax import networks
+from wcac_jax.networks import NetParams
+
+
+def test_paper_network_forward_by_hand():
+    net = networks.paper_network(in_dim=2, out_dim=1, width=2, depth=1)
+    params = NetParams(
+        trainable={"w": (jnp.array([[1.0, -1.0], [2.0, 0.0]]),)},
+        fixed={"a": jnp.eye(2), "c": jnp.array([[1.0], [-1.0]])},
+    )
+    # x0 = [0.6, 0.8]; W x0 = [-0.2, 1.2]; ReLU / sqrt(2) = [0, 1.2 / sqrt 2]; y = -1.2 / sqrt 2
+    y = net.apply(params, jnp.array([0.6, 0.8]))
+    np.testing.assert_allclose(y, [-1.2 / math.sqrt(2)], rtol=1e-6)
+    batch = net.apply(params, jnp.array([[0.6, 0.8], [0.0, 1.0]]))
+    assert batch.shape == (2, 1)
+
+
+def test_paper_network_initialisation_statistics():
+    width, depth = 256, 2
+    params = networks.paper_network(17, 3, width, depth).init(jax.random.key(0))
+    assert set(params.trainable) == {"w"} and len(params.trainable["w"]) == depth
+    assert params.fixed["a"].shape == (width, 17) and params.fixed["c"].shape == (width, 3)
+    for w in params.trainable["w"]:
+        assert w.shape == (width, width)
+        assert float(jnp.var(w)) == pytest.approx(2.0, rel=0.02)
+    assert float(jnp.var(params.fixed["a"])) == pytest.approx(2.0, rel=0.1)
+    assert float(jnp.var(params.fixed["c"])) == pytest.approx(1.0, rel=0.2)
+
+
+def test_only_trainable_parameters_get_gradients():
+    net = networks.paper_network(3, 1, 8, 2)
+    params = net.init(jax.random.key(1))
+    grads = jax.grad(lambda tr: net.apply(NetParams(tr, params.fixed), jnp.ones(3))[0])(
+        params.trainable
+    )
+    assert jax.tree.structure(grads) == jax.tree.structure(params.trainable)
+
+
+def test_mlp_network_shapes_and_selection():
+    net = networks.make_network("mlp", 5, 2, 16, 3)
+    params = net.init(jax.random.key(0))
+    assert params.fixed == {}
+    assert net.apply(params, jnp.ones((4, 5))).shape == (4, 2)
+    with pytest.raises(ValueError, match="'cnn'.*paper, mlp"):
+        networks.make_network("cnn", 5, 2, 16, 3)
+    with pytest.raises(ValueError, match="depth"):
+        networks.make_network("paper", 5, 2, 16, 0)
+
+
+def test_projection_inside_untouched_outside_onto_sphere():
+    center = {"w1": jnp.zeros((2, 2)), "w2": jnp.ones((3,))}
+    params = {"w1": jnp.array([[3.0, 0.0], [0.0, 4.0]]), "w2": jnp.ones((3,)) + 0.1}
+    out = networks.project_to_ball(params, center, radius=1.0)
+    # layer 1 is at distance 5: scaled onto the sphere, direction kept
+    np.testing.assert_allclose(out["w1"], [[0.6, 0.0], [0.0, 0.8]], rtol=1e-6)
+    # layer 2 is at distance 0.1 * sqrt(3) < 1: untouched (projection is per layer)
+    np.testing.assert_array_equal(out["w2"], params["w2"])
+    unbounded = networks.project_to_ball(params, center, radius=math.inf)
+    np.testing.assert_array_equal(unbounded["w1"], params["w1"])
+
+
+def test_unit_sphere():
+    x = networks.unit_sphere(jnp.array([[3.0, 4.0], [0.0, 0.0]]))
+    np.testing.assert_allclose(x, [[0.6, 0.8], [0.0, 0.0]])
+
+
+def test_gaussian_policy_log_prob_and_parameters():
+    net = networks.paper_network(2, 2, 4, 1)
+    learned = networks.gaussian_policy(net, 2, log_std_init=-0.5, learn_log_std=True)
+    params = learned.init(jax.random.key(0))
+    assert set(params.trainable) == {"net", "log_std"}
+    fixed = networks.gaussian_policy(net, 2, log_std_init=-0.5, learn_log_std=False)
+    assert set(fixed.init(jax.random.key(0)).trainable) == {"net"}
+    mean, log_std = learned.apply(params, jnp.ones((3, 2)))
+    assert mean.shape == (3, 2) and log_std.shape == (2,)
+    # standard normal in 2-D at the mean: -log(2 pi)
+    lp = networks.gaussian_log_prob(jnp.zeros(2), jnp.zeros(2), jnp.zeros(2))
+    assert float(lp) == pytest.approx(-math.log(2 * math.pi), rel=1e-6)
+    # one-D N(1, 0.5^2) at 2: -0.5 * 4 - log 0.5 - 0.5 log(2 pi)
+    lp = networks.gaussian_log_prob(jnp.ones(1), jnp.log(jnp.full(1, 0.5)), jnp.full(1, 2.0))
+    assert float(lp) == pytest.approx(-2.0 - math.log(0.5) - 0.5 * math.log(2 * math.pi), rel=1e-6)

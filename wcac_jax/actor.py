@@ -1,0 +1,159 @@
+"""Algorithm 1 (the actor) as pure functions, with the sign fixed as in SPEC §4.
+
+From `M = N * L` on-policy transitions and the averaged critics:
+
+  `A_i = r_i + gamma (1 - terminal) V(s'; Wbar_i) - V(s; Wbar_i)`   (TD-residual advantage)
+  `gradJ_i = mean_M(A_i * psi)`, `psi = grad_theta log pi(a | s)`   (policy gradient)
+  `Jhat_i = mean_{s0} V(s0; Wbar_i)`                                 (start-state value)
+  `d = -sum_i w_i p_i gradJ_i`                                       (estimate of grad G)
+
+where `w` are the scalarization's objective weights (`lambda` for `smooth_wc`, see
+`scalarize`). `d` is computed with ONE backward pass through
+`mean_M(stop_gradient(sum_i w_i p_i A_i) * log pi(a | s))`, never `m` passes. The step
+`theta <- theta - alpha_t d / ||d||` descends `G`; it is an optax transformation built by
+`make_optimizer`, whose alternatives apply adam or sgd to `d` instead.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+import chex
+import jax
+import jax.numpy as jnp
+import optax
+
+from wcac_jax.networks import NetParams, gaussian_log_prob
+
+PolicyApply = Callable[[NetParams, chex.Array], tuple[chex.Array, chex.Array]]
+
+ACTOR_OPTIMIZERS = ("normalized", "normalized_harmonic", "adam", "sgd")
+
+
+def td_advantages(
+    v: chex.Array, reward: chex.Array, v_next: chex.Array, terminal: chex.Array, gamma: float
+) -> chex.Array:
+    """TD-residual advantages `A = r + gamma (1 - terminal) V(s') - V(s)`.
+
+    Args:
+      v, reward, v_next: `[..., m]`.
+      terminal: `[...]`, 1 where `s'` is terminal.
+      gamma: discount.
+
+    Returns:
+      `[..., m]`.
+    """
+    chex.assert_equal_shape([v, reward, v_next])
+    return reward + gamma * (1.0 - terminal)[..., None] * v_next - v
+
+
+def objective_estimates(start_values: chex.Array) -> chex.Array:
+    """`Jhat_i`: the mean over start states of the critics' values. `[S, m] -> [m]`."""
+    chex.assert_rank(start_values, 2)
+    return jnp.mean(start_values, axis=0)
+
+
+def log_prob(policy_apply: PolicyApply, params: NetParams, obs, action) -> chex.Array:
+    """`log pi(a | s)` of the unclipped action. obs `[M, obs]`, action `[M, act]` -> `[M]`."""
+    mean, log_std = policy_apply(params, obs)
+    return gaussian_log_prob(mean, log_std, action)
+
+
+def surrogate(
+    policy_apply: PolicyApply,
+    trainable: Any,
+    fixed: Any,
+    obs: chex.Array,
+    action: chex.Array,
+    coeff: chex.Array,
+) -> chex.Array:
+    """`mean_M(coeff * log pi(a | s))`: its gradient is `mean_M(coeff * psi)`.
+
+    Args:
+      trainable, fixed: the policy's parameters (differentiated w.r.t. `trainable`).
+      obs: `[M, obs]`; action: `[M, act]`; coeff: `[M]` (treated as a constant).
+    """
+    chex.assert_rank([obs, action, coeff], [2, 2, 1])
+    lp = log_prob(policy_apply, NetParams(trainable, fixed), obs, action)
+    return jnp.mean(jax.lax.stop_gradient(coeff) * lp)
+
+
+def direction(
+    policy_apply: PolicyApply,
+    params: NetParams,
+    obs: chex.Array,
+    action: chex.Array,
+    advantages: chex.Array,
+    objective_weights: chex.Array,
+    pref: chex.Array,
+) -> Any:
+    """The descent direction `d = -sum_i w_i p_i gradJ_i`, in one backward pass.
+
+    Args:
+      policy_apply: the policy's `apply`.
+      params: the policy's parameters.
+      obs: `[M, obs]` preprocessed observations.
+      action: `[M, act]` the sampled (unclipped) actions.
+      advantages: `[M, m]` advantage estimates `A_i`.
+      objective_weights: `[m]` scalarization weights `w` (e.g. `lambda`).
+      pref: `[m]` preference vector.
+
+    Returns:
+      A pytree like `params.trainable`: `d`, an estimate of the gradient of the
+      scalarized objective (which is minimised).
+    """
+    chex.assert_rank([advantages, objective_weights, pref], [2, 1, 1])
+    coeff = advantages @ (objective_weights * pref)  # [M]
+    grad = jax.grad(surrogate, argnums=1)(
+        policy_apply, params.trainable, params.fixed, obs, action, coeff
+    )
+    return jax.tree.map(jnp.negative, grad)
+
+
+def objective_gradients(
+    policy_apply: PolicyApply,
+    params: NetParams,
+    obs: chex.Array,
+    action: chex.Array,
+    advantages: chex.Array,
+) -> Any:
+    """The `m` per-objective policy gradients `gradJ_i = mean_M(A_i psi)`.
+
+    `m` backward passes (vmapped); `direction` needs only one. Used by multi-gradient
+    methods and tests. Returns a pytree like `params.trainable` with a leading `[m]` axis.
+    """
+    chex.assert_rank(advantages, 2)
+    return jax.vmap(
+        lambda a: jax.grad(surrogate, argnums=1)(
+            policy_apply, params.trainable, params.fixed, obs, action, a
+        )
+    )(advantages.T)
+
+
+def make_optimizer(kind: str, learning_rate: float) -> optax.GradientTransformation:
+    """The actor's step on `d` as an optax transformation.
+
+    - `"normalized"`: the paper's step `theta - alpha d / ||d||` with constant `alpha`
+      (its experiments); the norm is global over all trainable parameters.
+    - `"normalized_harmonic"`: the same with `alpha_t = alpha / (t + 1)` (its theory).
+    - `"adam"`, `"sgd"`: optax's optimisers applied to `d` (practical alternatives).
+
+    Args:
+      kind: one of `ACTOR_OPTIMIZERS`.
+      learning_rate: `alpha`.
+    """
+    if kind == "normalized":
+        return optax.chain(
+            optax.normalize_by_update_norm(), optax.scale_by_learning_rate(learning_rate)
+        )
+    if kind == "normalized_harmonic":
+        return optax.chain(
+            optax.normalize_by_update_norm(),
+            optax.scale_by_learning_rate(lambda t: learning_rate / (t + 1.0)),
+        )
+    if kind == "adam":
+        return optax.adam(learning_rate)
+    if kind == "sgd":
+        return optax.sgd(learning_rate)
+    raise ValueError(f"unknown actor optimizer {kind!r}; valid: {', '.join(ACTOR_OPTIMIZERS)}")

@@ -1,0 +1,60 @@
+"""The environment registry: names to constructors, each with its objectives and utopia point.
+
+`make(name, **overrides)` builds an environment; every environment is a Brax-style `Env`
+(`reset(key) -> State`, `step(state, action) -> State`, single unbatched copy) whose
+`State.reward` is a vector with one entry per objective, and which exposes
+`num_objectives`, `objective_names`, `default_j_ub` and `episode_length`. Training code
+wraps it with `EpisodeWrapper` and vmaps it; nothing here imports training code.
+"""
+
+from __future__ import annotations
+
+import importlib
+import inspect
+from collections.abc import Callable
+
+from wcac_jax.envs.wrappers import EpisodeWrapper
+
+# name -> "module:attribute"; imported lazily so that MJX loads only when it is used.
+_REGISTRY: dict[str, str] = {
+    "concave_bandit": "wcac_jax.envs.concave_bandit:ConcaveBandit",
+}
+
+
+def register(name: str, target: str) -> None:
+    """Registers `"module:attribute"` (a constructor taking keyword options) as `name`."""
+    _REGISTRY[name] = target
+
+
+def names() -> tuple[str, ...]:
+    """The registered environment names, sorted."""
+    return tuple(sorted(_REGISTRY))
+
+
+def _constructor(name: str) -> Callable:
+    if name not in _REGISTRY:
+        raise ValueError(f"unknown environment {name!r}; valid: {', '.join(names())}")
+    module, attr = _REGISTRY[name].split(":")
+    return getattr(importlib.import_module(module), attr)
+
+
+def make(name: str, **overrides):
+    """Builds the environment `name` with keyword `overrides` of its options.
+
+    Raises:
+      ValueError: for an unknown name (listing the valid ones) or an unknown option
+        (listing the environment's options).
+    """
+    ctor = _constructor(name)
+    params = inspect.signature(ctor).parameters
+    valid = [p for p in params if p != "self"]
+    unknown = sorted(set(overrides) - set(valid))
+    if unknown:
+        raise ValueError(
+            f"unknown option(s) {', '.join(map(repr, unknown))} for environment {name!r}; "
+            f"valid: {', '.join(valid) if valid else '(none)'}"
+        )
+    return ctor(**overrides)
+
+
+__all__ = ["EpisodeWrapper", "make", "names", "register"]

@@ -1,0 +1,201 @@
+"""Function approximators as `(init, apply)` pairs: the paper's ReLU network, a flax MLP,
+the Gaussian policy head, and the per-layer Frobenius-ball projection of Algorithm 2.
+
+Every network's parameters are a `NetParams(trainable, fixed)` pytree: only `trainable`
+is ever differentiated, updated, projected or averaged; `fixed` holds what the paper keeps
+at its initial value (`A` and `c`). `apply(params, x)` accepts any leading batch axes:
+`x` is `[..., in_dim]` and the result `[..., out_dim]`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import Any, NamedTuple
+
+import chex
+import flax.linen as nn
+import jax
+import jax.numpy as jnp
+from flax import struct
+
+NETWORK_KINDS = ("paper", "mlp")
+
+
+@struct.dataclass
+class NetParams:
+    """Parameters of one network.
+
+    Attributes:
+      trainable: pytree of the trained parameters (the paper's `W = (W_1..W_D)`).
+      fixed: pytree of parameters kept at their initial values (the paper's `A`, `c`).
+    """
+
+    trainable: Any
+    fixed: Any
+
+
+class Network(NamedTuple):
+    """A network as two pure functions.
+
+    Attributes:
+      init: `key -> NetParams`.
+      apply: `(NetParams, x [..., in_dim]) -> y [..., out_dim]`.
+    """
+
+    init: Callable[[chex.PRNGKey], NetParams]
+    apply: Callable[[NetParams, chex.Array], chex.Array]
+
+
+def paper_network(in_dim: int, out_dim: int, width: int, depth: int) -> Network:
+    """The paper's ReLU network (Section 3.2).
+
+    `x0 = A x`, `x_b = ReLU(W_b x_{b-1}) / sqrt(w)` for `b = 1..D`, `y = c^T x_D`, with
+    entries of `A` (`[w, d]`) and every `W_b` (`[w, w]`) drawn i.i.d. `N(0, 2)` and of `c`
+    (`[w, out_dim]`, one column per output) drawn `N(0, 1)`. Only `W` is trainable
+    (`trainable = {"w": (W_1, .., W_D)}`, one leaf per layer, so the projection acts per
+    layer); `fixed = {"a": A, "c": c}`. The paper assumes `||x||_2 = 1`; see
+    `unit_sphere`. With unit inputs the output's scale at initialisation is about
+    `sqrt(2 w)`.
+
+    Args:
+      in_dim: `d`, the input size.
+      out_dim: number of outputs (1 for a value, the action size for a policy mean).
+      width: `w`.
+      depth: `D >= 1`, the number of trained layers.
+    """
+    if depth < 1 or width < 1:
+        raise ValueError(f"paper_network needs depth >= 1 and width >= 1, got {depth=}, {width=}")
+    inv_sqrt_w = 1.0 / math.sqrt(width)
+
+    def init(key: chex.PRNGKey) -> NetParams:
+        key_a, key_w, key_c = jax.random.split(key, 3)
+        a = math.sqrt(2.0) * jax.random.normal(key_a, (width, in_dim))
+        ws = tuple(
+            math.sqrt(2.0) * jax.random.normal(k, (width, width))
+            for k in jax.random.split(key_w, depth)
+        )
+        c = jax.random.normal(key_c, (width, out_dim))
+        return NetParams(trainable={"w": ws}, fixed={"a": a, "c": c})
+
+    def apply(params: NetParams, x: chex.Array) -> chex.Array:
+        h = x @ params.fixed["a"].T
+        for w in params.trainable["w"]:
+            h = jax.nn.relu(h @ w.T) * inv_sqrt_w
+        return h @ params.fixed["c"]
+
+    return Network(init, apply)
+
+
+class _MLP(nn.Module):
+    hidden: tuple[int, ...]
+    out_dim: int
+
+    @nn.compact
+    def __call__(self, x):
+        for size in self.hidden:
+            x = nn.relu(nn.Dense(size)(x))
+        return nn.Dense(self.out_dim)(x)
+
+
+def mlp_network(in_dim: int, out_dim: int, width: int, depth: int) -> Network:
+    """A conventional fully trainable ReLU MLP (flax), `depth` hidden layers of `width`.
+
+    Every parameter (kernels and biases, LeCun-normal init) is trainable; `fixed` is empty.
+    The output layer is initialised like the hidden ones.
+    """
+    if depth < 1 or width < 1:
+        raise ValueError(f"mlp_network needs depth >= 1 and width >= 1, got {depth=}, {width=}")
+    module = _MLP(hidden=(width,) * depth, out_dim=out_dim)
+
+    def init(key: chex.PRNGKey) -> NetParams:
+        return NetParams(trainable=module.init(key, jnp.zeros((in_dim,))), fixed={})
+
+    def apply(params: NetParams, x: chex.Array) -> chex.Array:
+        return module.apply(params.trainable, x)
+
+    return Network(init, apply)
+
+
+def make_network(kind: str, in_dim: int, out_dim: int, width: int, depth: int) -> Network:
+    """Builds a network by kind: `"paper"` (`paper_network`) or `"mlp"` (`mlp_network`)."""
+    if kind == "paper":
+        return paper_network(in_dim, out_dim, width, depth)
+    if kind == "mlp":
+        return mlp_network(in_dim, out_dim, width, depth)
+    raise ValueError(f"unknown network kind {kind!r}; valid: {', '.join(NETWORK_KINDS)}")
+
+
+def unit_sphere(x: chex.Array, eps: float = 1e-8) -> chex.Array:
+    """Projects each `[..., d]` row onto the unit sphere (the paper's `||x||_2 = 1`)."""
+    return x / jnp.maximum(jnp.linalg.norm(x, axis=-1, keepdims=True), eps)
+
+
+def project_to_ball(params: Any, center: Any, radius: float) -> Any:
+    """Per-layer Frobenius-ball projection `Proj_B` of Algorithm 2.
+
+    Each leaf `W_b` is scaled back onto `||W_b - W_b(0)||_F <= radius` around its
+    counterpart in `center`; a leaf already inside the ball is returned unchanged.
+    `radius = inf` disables the projection.
+
+    Args:
+      params: pytree of trainable parameters.
+      center: pytree of the same structure (the initial parameters `W(0)`).
+      radius: `B > 0`.
+    """
+
+    def project(w, w0):
+        delta = w - w0
+        norm = jnp.sqrt(jnp.sum(jnp.square(delta)))
+        scale = jnp.minimum(1.0, radius / jnp.maximum(norm, 1e-30))
+        return w0 + delta * scale
+
+    return jax.tree.map(project, params, center)
+
+
+class Policy(NamedTuple):
+    """A Gaussian policy with a network mean and a state-independent log-std.
+
+    Attributes:
+      init: `key -> NetParams` with `trainable = {"net": ..., "log_std": [act]}` (or
+        `log_std` under `fixed` when it is not learned).
+      apply: `(NetParams, obs [..., obs]) -> (mean [..., act], log_std [act])`.
+    """
+
+    init: Callable[[chex.PRNGKey], NetParams]
+    apply: Callable[[NetParams, chex.Array], tuple[chex.Array, chex.Array]]
+
+
+def gaussian_policy(
+    network: Network, action_size: int, log_std_init: float, learn_log_std: bool = True
+) -> Policy:
+    """Wraps a network with `action_size` outputs into a Gaussian policy.
+
+    The trainable parameters of the policy, all of which the actor's normalised step
+    covers, are the network's trainable parameters and, if `learn_log_std`, the log-std.
+    """
+
+    def init(key: chex.PRNGKey) -> NetParams:
+        net = network.init(key)
+        log_std = jnp.full((action_size,), log_std_init, dtype=jnp.float32)
+        if learn_log_std:
+            return NetParams({"net": net.trainable, "log_std": log_std}, {"net": net.fixed})
+        return NetParams({"net": net.trainable}, {"net": net.fixed, "log_std": log_std})
+
+    def apply(params: NetParams, obs: chex.Array) -> tuple[chex.Array, chex.Array]:
+        net = NetParams(params.trainable["net"], params.fixed["net"])
+        log_std = params.trainable["log_std"] if learn_log_std else params.fixed["log_std"]
+        return network.apply(net, obs), log_std
+
+    return Policy(init, apply)
+
+
+def gaussian_log_prob(mean: chex.Array, log_std: chex.Array, action: chex.Array) -> chex.Array:
+    """Log-density of a diagonal Gaussian. `mean`, `action`: `[..., act]`; returns `[...]`."""
+    z = (action - mean) * jnp.exp(-log_std)
+    return jnp.sum(-0.5 * jnp.square(z) - log_std - 0.5 * math.log(2 * math.pi), axis=-1)
+
+
+def gaussian_sample(key: chex.PRNGKey, mean: chex.Array, log_std: chex.Array) -> chex.Array:
+    """Draws `mean + exp(log_std) * eps`, `eps ~ N(0, I)`, of the shape of `mean`."""
+    return mean + jnp.exp(log_std) * jax.random.normal(key, mean.shape, mean.dtype)

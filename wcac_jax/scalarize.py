@@ -1,0 +1,168 @@
+"""Scalarizations of a vector of objective values, each a *minimisation* objective.
+
+Rewards are maximised, so every scalarization here is a regret to be minimised
+(SPEC §1): the hard weighted Chebyshev `g`, its log-sum-exp smoothing `G_mu`, and the
+linear baseline. Each function takes ONE sample (vectors of shape `[m]`) and returns a
+scalar or an `[m]` vector; callers `vmap` over preferences or batches. All of them are
+jittable, vmappable and differentiable, and import nothing but jax and chex.
+
+The *objective weights* `w(J | p)` of a scalarization `S` are defined by
+`grad_J S(J | p) = -w * p` (elementwise), so an actor can build the descent direction
+`-sum_i w_i p_i grad J_i` from per-objective policy gradients without differentiating `S`:
+
+- `smooth_wc`: `w = softmax(p * (J_ub - J) / mu)` (the paper's `lambda`),
+- `wc`: `w = onehot(argmax_i p_i (J_ub_i - J_i))` (a subgradient),
+- `linear`: `w = 1`.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple, Protocol
+
+import chex
+import jax
+import jax.numpy as jnp
+
+
+def _regrets(values: chex.Array, pref: chex.Array, j_ub: chex.Array) -> chex.Array:
+    chex.assert_rank([values, pref, j_ub], 1)
+    chex.assert_equal_shape([values, pref, j_ub])
+    return pref * (j_ub - values)
+
+
+def linear(values: chex.Array, pref: chex.Array) -> chex.Array:
+    """Linear scalarization `L(J | p) = -sum_i p_i J_i` (to be minimised).
+
+    Args:
+      values: `[m]` objective values `J` (higher is better).
+      pref: `[m]` preference vector on the simplex.
+
+    Returns:
+      A scalar.
+    """
+    chex.assert_rank([values, pref], 1)
+    chex.assert_equal_shape([values, pref])
+    return -jnp.dot(pref, values)
+
+
+def wc(values: chex.Array, pref: chex.Array, j_ub: chex.Array) -> chex.Array:
+    """Hard weighted Chebyshev `g(J | p) = max_i p_i (J_ub_i - J_i)`.
+
+    Args:
+      values: `[m]` objective values `J`.
+      pref: `[m]` preference vector.
+      j_ub: `[m]` utopia point, `J_ub_i > J_i` for every policy.
+
+    Returns:
+      A scalar.
+    """
+    return jnp.max(_regrets(values, pref, j_ub))
+
+
+def smooth_wc(
+    values: chex.Array, pref: chex.Array, j_ub: chex.Array, mu: chex.Numeric
+) -> chex.Array:
+    """Smoothed weighted Chebyshev `G_mu(J | p) = mu * logsumexp_i(p_i (J_ub_i - J_i) / mu)`.
+
+    Uses a max-shifted logsumexp, so arguments `p_i (J_ub_i - J_i) / mu` of 1e6 and more
+    neither overflow nor produce NaN. `g <= G_mu <= g + mu log m`, and `G_mu -> g` as
+    `mu -> 0`.
+
+    Args:
+      values: `[m]` objective values `J`.
+      pref: `[m]` preference vector.
+      j_ub: `[m]` utopia point.
+      mu: smoothing temperature, `mu > 0`.
+
+    Returns:
+      A scalar.
+    """
+    return mu * jax.nn.logsumexp(_regrets(values, pref, j_ub) / mu)
+
+
+def smooth_wc_weights(
+    values: chex.Array, pref: chex.Array, j_ub: chex.Array, mu: chex.Numeric
+) -> chex.Array:
+    """The objective weights `lambda = softmax(p * (J_ub - J) / mu)` of `smooth_wc`.
+
+    They sum to one and satisfy `grad_J G_mu = -lambda * p`, hence
+    `grad_theta G_mu = -sum_i lambda_i p_i grad_theta J_i`.
+
+    Args:
+      values: `[m]` objective values `J`.
+      pref: `[m]` preference vector.
+      j_ub: `[m]` utopia point.
+      mu: smoothing temperature, `mu > 0`.
+
+    Returns:
+      `[m]` weights on the simplex.
+    """
+    return jax.nn.softmax(_regrets(values, pref, j_ub) / mu)
+
+
+def wc_weights(values: chex.Array, pref: chex.Array, j_ub: chex.Array) -> chex.Array:
+    """Subgradient weights of `wc`: one-hot on the objective with the largest regret.
+
+    Ties go to the lowest index (a valid subgradient).
+
+    Args:
+      values: `[m]`; pref: `[m]`; j_ub: `[m]`.
+
+    Returns:
+      `[m]` one-hot weights.
+    """
+    regrets = _regrets(values, pref, j_ub)
+    return jax.nn.one_hot(jnp.argmax(regrets), regrets.shape[0], dtype=regrets.dtype)
+
+
+def linear_weights(values: chex.Array, pref: chex.Array) -> chex.Array:
+    """Objective weights of `linear`: all ones, since `grad_J L = -p`.
+
+    Args:
+      values: `[m]`; pref: `[m]`.
+
+    Returns:
+      `[m]` ones.
+    """
+    chex.assert_equal_shape([values, pref])
+    return jnp.ones_like(values)
+
+
+class _ValueFn(Protocol):
+    def __call__(self, values, pref, j_ub, mu) -> chex.Array: ...
+
+
+class Scalarization(NamedTuple):
+    """A scalarization as a pair of per-sample functions with one signature.
+
+    Attributes:
+      value: `(values [m], pref [m], j_ub [m], mu) -> scalar`, to be minimised.
+      weights: `(values [m], pref [m], j_ub [m], mu) -> [m]`, with
+        `grad_J value = -weights * pref`.
+    """
+
+    value: _ValueFn
+    weights: _ValueFn
+
+
+SCALARIZATIONS: dict[str, Scalarization] = {
+    "smooth_wc": Scalarization(smooth_wc, smooth_wc_weights),
+    "wc": Scalarization(lambda v, p, z, mu: wc(v, p, z), lambda v, p, z, mu: wc_weights(v, p, z)),
+    "linear": Scalarization(
+        lambda v, p, z, mu: linear(v, p), lambda v, p, z, mu: linear_weights(v, p)
+    ),
+}
+
+
+def get(name: str) -> Scalarization:
+    """Looks up a scalarization by name (`smooth_wc`, `wc` or `linear`).
+
+    Raises:
+      ValueError: naming the bad value and the valid ones.
+    """
+    try:
+        return SCALARIZATIONS[name]
+    except KeyError:
+        raise ValueError(
+            f"unknown scalarization {name!r}; valid: {', '.join(sorted(SCALARIZATIONS))}"
+        ) from None

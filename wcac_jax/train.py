@@ -1,0 +1,358 @@
+"""Algorithm 1 + 2 as one pure program: `make_train(config, env)` returns `train(key, pref)`.
+
+`make_trainer` does all Python-side setup (networks, optimizer, wrapped and vmapped env)
+and returns pure functions:
+
+- `init(key, pref) -> TrainState` — networks, `N` environments, normaliser;
+- `run(state, pref, num_iterations) -> (state, metrics)` — `num_iterations` outer
+  iterations as one `lax.scan`; metrics are stacked per iteration (`[T, ...]`).
+
+Iteration `t` uses the key `fold_in(state.key, t)`, so splitting a run into chunks of
+`run` calls gives bit-identical results to one call. Per iteration, for one preference:
+
+1. critics restart (warm or cold, `critic.restart`);
+2. `K` critic steps: all `N` environments step once under the current policy (Markov
+   sampling: they continue from where they were) and every critic takes a TD step;
+3. `L` rollout steps collect `M = N * L` transitions;
+4. TD-residual advantages under the averaged critics, `Jhat` from the start states'
+   values, the scalarization's weights, the direction `d` (one backward pass) and the
+   actor's optimizer step;
+5. the observation normaliser absorbs the iteration's observations.
+
+So each iteration costs `N * (K + L)` environment steps (`config.env_steps_per_iteration`).
+Observations are normalised with running mean/std (Brax's `running_statistics`, per
+preference) and, for the paper network, projected to the unit sphere. Actions are
+clipped to `[-1, 1]` for the environment; the score uses the unclipped sample.
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Callable
+from typing import Any, NamedTuple
+
+import chex
+import jax
+import jax.numpy as jnp
+import optax
+from brax.envs.base import State
+from brax.training.acme import running_statistics, specs
+from flax import struct
+
+from wcac_jax import actor, critic, networks, scalarize
+from wcac_jax.config import TrainConfig
+from wcac_jax.envs.wrappers import EpisodeWrapper
+from wcac_jax.types import EpisodeStats, Transition
+
+
+@struct.dataclass
+class TrainState:
+    """Everything one preference's training carries between iterations.
+
+    Attributes:
+      actor: policy parameters.
+      actor_opt_state: the actor optimizer's state.
+      critic: the `m` critics (leaves `[m, ...]`).
+      obs_stats: running observation statistics.
+      env_state: the `N` environments (leaves `[N, ...]`).
+      episodes: episode bookkeeping (`[N, m]`, `[N]`).
+      key: raw key data (`jax.random.key_data`) of the run's base key; iteration `t`
+        uses `fold_in(key, t)`. Raw, so that states convert to numpy and checkpoint.
+      iteration: `t`, outer iterations done.
+      env_steps: environment steps taken so far (this preference).
+    """
+
+    actor: networks.NetParams
+    actor_opt_state: Any
+    critic: critic.CriticState
+    obs_stats: running_statistics.RunningStatisticsState
+    env_state: State
+    episodes: EpisodeStats
+    key: chex.PRNGKey
+    iteration: chex.Array
+    env_steps: chex.Array
+
+
+class Trainer(NamedTuple):
+    """The pure functions of one training setup (see module docstring).
+
+    Attributes:
+      init: `(key, pref [m]) -> TrainState`.
+      run: `(state, pref [m], num_iterations) -> (state, metrics)`; `num_iterations` is
+        static (bind it with `functools.partial` before `jit`).
+      policy: the Gaussian policy `(init, apply)`.
+      value_network: the critics' network `(init, apply)`.
+      preprocess: `(obs_stats, obs [..., obs]) -> network input [..., obs]`.
+      mean_action: `(state, obs [..., obs]) -> [..., act]` the deterministic (mean)
+        policy's action, clipped to `[-1, 1]`.
+      j_ub: `[m]` the utopia point in use.
+    """
+
+    init: Callable
+    run: Callable
+    policy: networks.Policy
+    value_network: networks.Network
+    preprocess: Callable
+    mean_action: Callable
+    j_ub: chex.Array
+
+
+def _typed_key(key: chex.PRNGKey) -> chex.PRNGKey:
+    """Accepts a typed key (`jax.random.key`) or raw uint32 key data (`PRNGKey`)."""
+    if jnp.issubdtype(key.dtype, jax.dtypes.prng_key):
+        return key
+    return jax.random.wrap_key_data(key)
+
+
+def resolve_j_ub(config: TrainConfig, env) -> tuple[float, ...]:
+    """The utopia point: `config.j_ub`, or the environment's default; checks its length."""
+    j_ub = config.j_ub if config.j_ub is not None else tuple(env.default_j_ub)
+    if len(j_ub) != env.num_objectives:
+        raise ValueError(
+            f"j_ub {list(j_ub)} has {len(j_ub)} entries; the environment has "
+            f"{env.num_objectives} objectives ({', '.join(env.objective_names)})"
+        )
+    return tuple(float(v) for v in j_ub)
+
+
+def make_trainer(config: TrainConfig, env) -> Trainer:
+    """Builds the pure `init` and `run` of Algorithm 1 + 2 for `env` (see module doc).
+
+    Args:
+      config: static sizes and hyperparameters.
+      env: a single unbatched Brax-style environment with vector rewards exposing
+        `num_objectives`, `default_j_ub` and `episode_length` (see `wcac_jax.envs`).
+    """
+    m = int(env.num_objectives)
+    obs_size = int(env.observation_size)
+    act_size = int(env.action_size)
+    j_ub = jnp.asarray(resolve_j_ub(config, env), jnp.float32)
+    scal = scalarize.get(config.scalarization)
+    n_envs, gamma = config.num_envs, config.gamma
+
+    wrapped = EpisodeWrapper(env, env.episode_length)
+    v_reset = jax.vmap(wrapped.reset)
+    v_step = jax.vmap(wrapped.step)
+
+    policy = networks.gaussian_policy(
+        networks.make_network(config.network, obs_size, act_size, config.width, config.depth),
+        act_size,
+        config.log_std_init,
+        config.learn_log_std,
+    )
+    value_net = networks.make_network(config.network, obs_size, 1, config.width, config.depth)
+    optimizer = actor.make_optimizer(config.actor_optimizer, config.actor_lr)
+
+    def preprocess(obs_stats, obs):
+        x = obs
+        if config.normalize_obs:
+            x = running_statistics.normalize(x, obs_stats)
+        if config.network == "paper":
+            x = networks.unit_sphere(x)
+        return x
+
+    def init(key: chex.PRNGKey, pref: chex.Array) -> TrainState:
+        del pref  # the initial state does not depend on the preference
+        key = _typed_key(key)
+        key_actor, key_critic, key_env, key_run = jax.random.split(key, 4)
+        actor_params = policy.init(key_actor)
+        env_state = v_reset(jax.random.split(key_env, n_envs))
+        return TrainState(
+            actor=actor_params,
+            actor_opt_state=optimizer.init(actor_params.trainable),
+            critic=critic.init(value_net.init, key_critic, m),
+            obs_stats=running_statistics.init_state(specs.Array((obs_size,), jnp.float32)),
+            env_state=env_state,
+            episodes=EpisodeStats(
+                running_return=jnp.zeros((n_envs, m), jnp.float32),
+                last_return=jnp.zeros((n_envs, m), jnp.float32),
+                finished=jnp.zeros((n_envs,), jnp.int32),
+            ),
+            key=jax.random.key_data(key_run),
+            iteration=jnp.zeros((), jnp.int32),
+            env_steps=jnp.zeros((), jnp.int32),
+        )
+
+    def env_step(actor_params, obs_stats, env_state, episodes, key):
+        """All `N` envs take one policy step. Returns the new env state, stats, transition."""
+        mean, log_std = policy.apply(actor_params, preprocess(obs_stats, env_state.obs))
+        action = networks.gaussian_sample(key, mean, log_std)
+        next_state = v_step(env_state, jnp.clip(action, -1.0, 1.0))
+        done = next_state.done
+        transition = Transition(
+            obs=env_state.obs,
+            action=action,
+            reward=next_state.reward,
+            next_obs=next_state.info["final_obs"],
+            terminal=next_state.info["terminal"],
+            done=done,
+        )
+        running = episodes.running_return + next_state.reward
+        ended = done[:, None] > 0
+        episodes = EpisodeStats(
+            running_return=jnp.where(ended, 0.0, running),
+            last_return=jnp.where(ended, running, episodes.last_return),
+            finished=episodes.finished + (done > 0).astype(jnp.int32),
+        )
+        return next_state, episodes, transition
+
+    def iteration(state: TrainState, pref: chex.Array):
+        key_critic, key_rollout = jax.random.split(
+            jax.random.fold_in(jax.random.wrap_key_data(state.key), state.iteration)
+        )
+        obs_stats = state.obs_stats
+        prep = functools.partial(preprocess, obs_stats)
+        finished_before = jnp.sum(state.episodes.finished)
+
+        # Algorithm 2: K TD steps on fresh on-policy transitions.
+        def critic_step(carry, key):
+            env_state, episodes, crit = carry
+            env_state, episodes, tr = env_step(state.actor, obs_stats, env_state, episodes, key)
+            crit, delta = critic.update(
+                value_net.apply,
+                crit,
+                prep(tr.obs),
+                tr.reward,
+                prep(tr.next_obs),
+                tr.terminal,
+                gamma=gamma,
+                learning_rate=config.critic_lr,
+                radius=config.projection_radius,
+            )
+            return (env_state, episodes, crit), (tr.obs, jnp.mean(jnp.abs(delta), axis=0))
+
+        crit = critic.restart(state.critic, config.critic_warm_start)
+        (env_state, episodes, crit), (critic_obs, td_abs) = jax.lax.scan(
+            critic_step,
+            (state.env_state, state.episodes, crit),
+            jax.random.split(key_critic, config.critic_steps),
+        )
+
+        # Algorithm 1: an M = N * L sample Markov batch under the same policy.
+        def rollout_step(carry, key):
+            env_state, episodes = carry
+            env_state, episodes, tr = env_step(state.actor, obs_stats, env_state, episodes, key)
+            return (env_state, episodes), tr
+
+        (env_state, episodes), batch = jax.lax.scan(
+            rollout_step, (env_state, episodes), jax.random.split(key_rollout, config.rollout_steps)
+        )
+        flat = jax.tree.map(lambda x: x.reshape((-1, *x.shape[2:])), batch)  # [M, ...]
+        avg = critic.averaged_params(crit)
+        obs_in = prep(flat.obs)
+        v = critic.values(value_net.apply, avg, obs_in)
+        v_next = critic.values(value_net.apply, avg, prep(flat.next_obs))
+        adv = actor.td_advantages(v, flat.reward, v_next, flat.terminal, gamma)  # [M, m]
+        start_obs = prep(env_state.info["first_obs"])
+        j_hat = actor.objective_estimates(critic.values(value_net.apply, avg, start_obs))
+        weights = scal.weights(j_hat, pref, j_ub, config.mu)
+        d = actor.direction(policy.apply, state.actor, obs_in, flat.action, adv, weights, pref)
+        updates, opt_state = optimizer.update(d, state.actor_opt_state, state.actor.trainable)
+        new_actor = state.actor.replace(
+            trainable=optax.apply_updates(state.actor.trainable, updates)
+        )
+
+        obs_seen = jnp.concatenate(
+            [critic_obs.reshape((-1, obs_size)), batch.obs.reshape((-1, obs_size))]
+        )
+        new_stats = (
+            running_statistics.update(obs_stats, obs_seen) if config.normalize_obs else obs_stats
+        )
+        env_steps = state.env_steps + config.env_steps_per_iteration
+
+        newly_finished = jnp.sum(episodes.finished) - finished_before
+        has_finished = (episodes.finished > 0).astype(jnp.float32)[:, None]
+        episode_return = jnp.sum(episodes.last_return * has_finished, axis=0) / jnp.maximum(
+            jnp.sum(has_finished), 1.0
+        )
+        _, log_std = policy.apply(state.actor, obs_in[:1])
+        metrics = {
+            "train/j_hat": j_hat,
+            "train/weights": weights,
+            "train/scalarized": scal.value(j_hat, pref, j_ub, config.mu),
+            "train/g_mu": scalarize.smooth_wc(j_hat, pref, j_ub, config.mu),
+            "train/episode_return": episode_return,
+            "train/episodes": newly_finished,
+            "train/env_steps": env_steps,
+            "train/td_error": jnp.mean(td_abs, axis=0),
+            "train/advantage": jnp.mean(adv, axis=0),
+            "train/direction_norm": optax.tree.norm(d),
+            "train/policy_std": jnp.mean(jnp.exp(log_std)),
+        }
+        new_state = state.replace(
+            actor=new_actor,
+            actor_opt_state=opt_state,
+            critic=crit,
+            obs_stats=new_stats,
+            env_state=env_state,
+            episodes=episodes,
+            iteration=state.iteration + 1,
+            env_steps=env_steps,
+        )
+        return new_state, metrics
+
+    def run(state: TrainState, pref: chex.Array, num_iterations: int):
+        chex.assert_shape(pref, (m,))
+        return jax.lax.scan(lambda s, _: iteration(s, pref), state, None, length=num_iterations)
+
+    def mean_action(state: TrainState, obs: chex.Array) -> chex.Array:
+        mean, _ = policy.apply(state.actor, preprocess(state.obs_stats, obs))
+        return jnp.clip(mean, -1.0, 1.0)
+
+    return Trainer(init, run, policy, value_net, preprocess, mean_action, j_ub)
+
+
+def make_train(config: TrainConfig, env) -> Callable:
+    """Returns `train(key, pref) -> (TrainState, metrics)`: the whole run, one `lax.scan`.
+
+    `key` (a PRNG key) and `pref` (`[m]`) are traced, so a sweep is
+    `jax.jit(jax.vmap(train))(keys [P], prefs [P, m])`; `metrics` leaves are `[T, ...]`
+    (`[P, T, ...]` under the vmap). See `make_trainer` for the pieces.
+    """
+    trainer = make_trainer(config, env)
+
+    def train(key: chex.PRNGKey, pref: chex.Array):
+        return trainer.run(trainer.init(key, pref), pref, config.num_iterations)
+
+    return train
+
+
+def make_evaluate(config: TrainConfig, env, num_episodes: int) -> Callable:
+    """Returns `evaluate(state, key) -> metrics` for the deterministic (mean) policy.
+
+    Runs `num_episodes` fresh episodes in parallel for up to `env.episode_length` steps
+    and returns, for each objective, the mean undiscounted return
+    (`eval/return`, `[m]`) and the mean discounted return from the start state
+    (`eval/discounted_return`, `[m]`), plus `eval/length` (mean episode length).
+    """
+    trainer = make_trainer(config, env)
+    wrapped = EpisodeWrapper(env, env.episode_length)
+    m = int(env.num_objectives)
+
+    def evaluate(state: TrainState, key: chex.PRNGKey):
+        env_state = jax.vmap(wrapped.reset)(jax.random.split(_typed_key(key), num_episodes))
+
+        def step(carry, _):
+            env_state, alive, ret, disc_ret, discount, length = carry
+            action = trainer.mean_action(state, env_state.obs)
+            env_state = jax.vmap(wrapped.step)(env_state, action)
+            r = env_state.reward * alive[:, None]
+            ret, disc_ret = ret + r, disc_ret + discount[:, None] * r
+            length = length + alive
+            alive = alive * (1.0 - env_state.done)
+            return (env_state, alive, ret, disc_ret, discount * gamma, length), None
+
+        gamma = config.gamma
+        zeros = jnp.zeros((num_episodes, m), jnp.float32)
+        ones = jnp.ones((num_episodes,), jnp.float32)
+        carry = (env_state, ones, zeros, zeros, ones, jnp.zeros_like(ones))
+        (_, _, ret, disc_ret, _, length), _ = jax.lax.scan(
+            step, carry, None, length=int(env.episode_length)
+        )
+        return {
+            "eval/return": jnp.mean(ret, axis=0),
+            "eval/discounted_return": jnp.mean(disc_ret, axis=0),
+            "eval/length": jnp.mean(length),
+        }
+
+    return evaluate
