@@ -80,6 +80,7 @@ class Trainer(NamedTuple):
       init: `(key, pref [m]) -> TrainState`.
       run: `(state, pref [m], num_iterations) -> (state, metrics)`; `num_iterations` is
         static (bind it with `functools.partial` before `jit`).
+      step: `(state, pref [m]) -> (state, metrics)`, one outer iteration.
       policy: the Gaussian policy `(init, apply)`.
       value_network: the critics' network `(init, apply)`.
       preprocess: `(obs_stats, obs [..., obs]) -> network input [..., obs]`.
@@ -90,6 +91,7 @@ class Trainer(NamedTuple):
 
     init: Callable
     run: Callable
+    step: Callable
     policy: networks.Policy
     value_network: networks.Network
     preprocess: Callable
@@ -299,7 +301,7 @@ def make_trainer(config: TrainConfig, env) -> Trainer:
         mean, _ = policy.apply(state.actor, preprocess(state.obs_stats, obs))
         return jnp.clip(mean, -1.0, 1.0)
 
-    return Trainer(init, run, policy, value_net, preprocess, mean_action, j_ub)
+    return Trainer(init, run, iteration, policy, value_net, preprocess, mean_action, j_ub)
 
 
 def make_train(config: TrainConfig, env) -> Callable:

@@ -18,6 +18,7 @@ from wcac_jax.envs.wrappers import EpisodeWrapper
 # name -> "module:attribute"; imported lazily so that MJX loads only when it is used.
 _REGISTRY: dict[str, str] = {
     "concave_bandit": "wcac_jax.envs.concave_bandit:ConcaveBandit",
+    "walker2d": "wcac_jax.envs.walker2d:Walker2d",
 }
 
 

@@ -1,0 +1,90 @@
+"""Pareto metrics against hand computations, brute force and pymoo."""
+
+import numpy as np
+import pytest
+
+from wcac_jax import pareto
+
+
+def test_hypervolume_2d_staircase_by_hand():
+    # staircase (1,3), (2,2), (3,1) over ref (0,0): 3*1 + 2*1 + 1*1 = 6
+    assert pareto.hypervolume([[1, 3], [2, 2], [3, 1]], [0, 0]) == pytest.approx(6.0)
+    # a dominated point and a point not dominating ref change nothing
+    pts = [[1, 3], [2, 2], [3, 1], [1, 1], [5, -1]]
+    assert pareto.hypervolume(pts, [0, 0]) == pytest.approx(6.0)
+    # shifted reference: (1+1)*(3+1) for one point
+    assert pareto.hypervolume([[1, 3]], [-1, -1]) == pytest.approx(8.0)
+    assert pareto.hypervolume(np.zeros((0, 2)), [0, 0]) == 0.0
+
+
+def test_hypervolume_3d_by_inclusion_exclusion():
+    # two boxes [0,2]x[0,1]x[0,1] (vol 2) and [0,1]x[0,2]x[0,1] (vol 2) overlap in the
+    # unit cube (vol 1): 2 + 2 - 1 = 3
+    assert pareto.hypervolume([[2, 1, 1], [1, 2, 1]], [0, 0, 0]) == pytest.approx(3.0)
+    # three boxes (2,1,1), (1,2,1), (1,1,2): 3 * 2 - 3 * 1 + 1 = 4
+    assert pareto.hypervolume([[2, 1, 1], [1, 2, 1], [1, 1, 2]], [0, 0, 0]) == pytest.approx(4.0)
+    # (3,2,1) and (1,2,3): 6 + 6 - |(1,2,1)| = 12 - 2 = 10
+    assert pareto.hypervolume([[3, 2, 1], [1, 2, 3]], [0, 0, 0]) == pytest.approx(10.0)
+
+
+@pytest.mark.parametrize("m", [2, 3, 4])
+def test_hypervolume_agrees_with_pymoo(m):
+    hv_mod = pytest.importorskip("pymoo.indicators.hv")
+    rng = np.random.default_rng(m)
+    for _ in range(50):
+        n = int(rng.integers(1, 12))
+        pts = rng.uniform(0, 1, (n, m))
+        if rng.uniform() < 0.3:  # ties
+            pts = np.round(pts, 1)
+        ref = np.full(m, -0.1)
+        expected = hv_mod.HV(ref_point=-ref)(-pts)  # pymoo minimises
+        assert pareto.hypervolume(pts, ref) == pytest.approx(expected, rel=1e-9, abs=1e-12)
+
+
+def test_nondominated_against_brute_force_with_ties():
+    rng = np.random.default_rng(0)
+    for _ in range(50):
+        pts = rng.integers(0, 4, (int(rng.integers(1, 15)), int(rng.integers(2, 4))))
+        mask = pareto.nondominated(pts)
+        for i, p in enumerate(pts):
+            dominated = any(np.all(q >= p) and np.any(q > p) for q in pts)
+            first = not any(np.array_equal(pts[j], p) for j in range(i))
+            assert mask[i] == (not dominated and first)
+
+
+def test_expected_utility_by_hand():
+    pts = [[1.0, 0.0], [0.0, 1.0], [0.6, 0.6]]
+    weights = [[1.0, 0.0], [0.5, 0.5], [0.0, 1.0]]
+    # best per weight: 1.0, 0.6, 1.0 -> mean 2.6 / 3
+    assert pareto.expected_utility(pts, weights) == pytest.approx(2.6 / 3)
+
+
+def test_sparsity_and_cardinality():
+    pts = [[0, 3], [1, 2], [3, 0], [0, 0], [1, 2]]
+    assert pareto.cardinality(pts) == 3
+    # front sorted per objective: x: 0,1,3 -> 1 + 4; y: 0,2,3 -> 4 + 1; (5 + 5) / 2
+    assert pareto.sparsity(pts) == pytest.approx(5.0)
+    assert pareto.sparsity([[1, 1]]) == 0.0
+
+
+def test_simplex_lattice():
+    np.testing.assert_allclose(pareto.simplex_lattice(2, 3), [[1, 0], [0.5, 0.5], [0, 1]])
+    for m, n in [(3, 6), (3, 10), (4, 7), (3, 1)]:
+        grid = pareto.simplex_lattice(m, n)
+        assert grid.shape == (n, m)
+        np.testing.assert_allclose(grid.sum(axis=1), 1.0)
+        assert np.all(grid >= 0)
+        assert len({tuple(r) for r in np.round(grid, 9)}) == n
+    corners = pareto.simplex_lattice(3, 6)
+    assert {tuple(r) for r in corners} >= {(1, 0, 0), (0, 1, 0), (0, 0, 1)}
+
+
+def test_errors():
+    with pytest.raises(ValueError, match="NaN"):
+        pareto.hypervolume([[1.0, np.nan]], [0, 0])
+    with pytest.raises(ValueError, match="objectives"):
+        pareto.hypervolume([[1.0, 2.0]], [0, 0, 0])
+    with pytest.raises(ValueError, match="2-D"):
+        pareto.nondominated([1.0, 2.0])
+    with pytest.raises(ValueError, match="objectives"):
+        pareto.expected_utility([[1.0, 2.0]], [[1.0, 0.0, 0.0]])

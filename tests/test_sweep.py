@@ -1,0 +1,227 @@
+"""`python -m wcac_jax.sweep` end to end on tiny bandit settings: outputs, chunking,
+SIGKILL + resume, two devices, bad input, NaN."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from wcac_jax import sweep
+
+TINY = [
+    "--env",
+    "concave_bandit",
+    "--envs-per-pref",
+    "8",
+    "--critic-steps",
+    "2",
+    "--rollout-steps",
+    "4",
+    "--network",
+    "mlp",
+    "--width",
+    "16",
+    "--depth",
+    "1",
+    "--steps-per-pref",
+    "1200",
+    "--eval-episodes",
+    "2",
+    "--quiet",
+]
+# slow enough (about a second per chunk) that a SIGKILL lands between chunks
+SLOW = [
+    "--env",
+    "concave_bandit",
+    "--n-prefs",
+    "3",
+    "--envs-per-pref",
+    "64",
+    "--critic-steps",
+    "2",
+    "--rollout-steps",
+    "4",
+    "--network",
+    "mlp",
+    "--width",
+    "256",
+    "--depth",
+    "2",
+    "--steps-per-pref",
+    "60000",
+    "--chunks",
+    "10",
+    "--eval-episodes",
+    "2",
+]
+
+
+def _cli(args, env=None, **kwargs):
+    return subprocess.run(
+        [sys.executable, "-m", "wcac_jax.sweep", *args],
+        capture_output=True,
+        text=True,
+        env={**os.environ, **(env or {})},
+        **kwargs,
+    )
+
+
+def _load(out):
+    with open(os.path.join(out, "front.json")) as f:
+        front = json.load(f)
+    with np.load(os.path.join(out, "curves.npz")) as data:
+        curves = {k: data[k] for k in data.files}
+    return front, curves
+
+
+@pytest.fixture(scope="module")
+def tiny_run(tmp_path_factory):
+    out = str(tmp_path_factory.mktemp("sweep") / "run")
+    proc = _cli([*TINY, "--n-prefs", "4", "--chunks", "3", "--out", out])
+    assert proc.returncode == 0, proc.stderr
+    return out
+
+
+def test_outputs_exist_parse_and_agree(tiny_run):
+    for name in ("front.json", "front.csv", "front.png", "curves.npz", "config.json"):
+        assert os.path.getsize(os.path.join(tiny_run, name)) > 0, name
+    assert os.listdir(os.path.join(tiny_run, "checkpoint"))
+    front, curves = _load(tiny_run)
+    assert len(front["prefs"]) == 4
+    assert front["objective_names"] == ["one_minus_sin", "one_minus_cos"]
+    np.testing.assert_allclose([r["pref"] for r in front["prefs"]], curves["prefs"])
+    t = front["config"]["train"]["num_iterations"]
+    assert curves["train/weights"].shape == (4, t, 2)
+    for i, row in enumerate(front["prefs"]):
+        np.testing.assert_allclose(row["lambda"], curves["train/weights"][i, -1], rtol=1e-6)
+        assert row["g_mu"] == pytest.approx(float(curves["train/g_mu"][i, -1]), rel=1e-6)
+        np.testing.assert_allclose(row["j_hat"], curves["train/j_hat"][i, -1], rtol=1e-6)
+        assert len(row["return"]) == len(row["discounted_return"]) == 2
+    assert front["env_steps_per_pref"] == int(curves["train/env_steps"][0, -1])
+    assert front["hypervolume"] >= 0 and front["hv_ref"] == [0.0, 0.0]
+    lines = open(os.path.join(tiny_run, "front.csv")).read().strip().splitlines()
+    assert len(lines) == 5 and lines[0].startswith("pref_one_minus_sin")
+    with open(os.path.join(tiny_run, "config.json")) as f:
+        assert json.load(f) == front["config"]
+
+
+def test_chunking_does_not_change_results(tiny_run, tmp_path):
+    front3, curves3 = _load(tiny_run)
+    config = sweep.config_from_args(sweep.build_parser().parse_args([*TINY, "--n-prefs", "4"]))
+    front1 = sweep.run_sweep(config, str(tmp_path / "one"), chunks=1, progress=False)
+    _, curves1 = _load(str(tmp_path / "one"))
+    for k in curves3:
+        np.testing.assert_array_equal(curves1[k], curves3[k], err_msg=k)
+    for a, b in zip(front1["prefs"], front3["prefs"], strict=True):
+        assert a["return"] == b["return"]
+
+
+@pytest.mark.slow
+def test_sigkill_then_resume_equals_uninterrupted(tmp_path):
+    out = str(tmp_path / "killed")
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "wcac_jax.sweep", *SLOW, "--out", out],
+        stderr=subprocess.PIPE,
+        stdout=subprocess.DEVNULL,
+        text=True,
+    )
+    for line in proc.stderr:  # plain progress lines: one per saved chunk
+        if line.startswith("[sweep]"):
+            proc.send_signal(signal.SIGKILL)
+            break
+    proc.wait()
+    assert proc.returncode == -signal.SIGKILL
+    assert not os.path.exists(os.path.join(out, "front.json"))  # really interrupted
+    resumed = _cli([*SLOW, "--out", out, "--resume"])
+    assert resumed.returncode == 0, resumed.stderr
+    full = _cli([*SLOW, "--out", str(tmp_path / "full")])
+    assert full.returncode == 0, full.stderr
+    front_r, curves_r = _load(out)
+    front_f, curves_f = _load(str(tmp_path / "full"))
+    for k in curves_f:
+        np.testing.assert_array_equal(curves_r[k], curves_f[k], err_msg=k)
+    assert [r["return"] for r in front_r["prefs"]] == [r["return"] for r in front_f["prefs"]]
+
+
+@pytest.mark.slow
+def test_two_devices_match_one(tiny_run, tmp_path):
+    out = str(tmp_path / "two")
+    proc = _cli(
+        [*TINY, "--prefs", "1,0;0.5,0.5;0,1", "--chunks", "3", "--out", out],
+        env={"XLA_FLAGS": "--xla_force_host_platform_device_count=2"},
+    )
+    assert proc.returncode == 0, proc.stderr
+    one = str(tmp_path / "one")
+    proc = _cli([*TINY, "--prefs", "1,0;0.5,0.5;0,1", "--chunks", "3", "--out", one])
+    assert proc.returncode == 0, proc.stderr
+    front2, curves2 = _load(out)
+    front1, curves1 = _load(one)
+    assert len(front2["devices"]) == 2 and len(front1["devices"]) == 1
+    assert len(front2["prefs"]) == 3  # the padding preference is dropped
+    for k in curves1:
+        if curves1[k].dtype.kind in "fiu":
+            np.testing.assert_allclose(curves2[k], curves1[k], rtol=1e-5, atol=1e-6, err_msg=k)
+        else:
+            np.testing.assert_array_equal(curves2[k], curves1[k], err_msg=k)
+    np.testing.assert_allclose(
+        [r["return"] for r in front2["prefs"]],
+        [r["return"] for r in front1["prefs"]],
+        rtol=1e-5,
+    )
+
+
+BAD = [
+    (["--prefs", "1,0,0;0,1"], "has 3 entries"),
+    (["--prefs", "1.5,-0.5"], "negative"),
+    (["--prefs", "nan,1"], "not finite"),
+    (["--prefs", "0.5,0.4"], "sums to 0.9"),
+    (["--prefs", "a,b"], "'a,b'"),
+    (["--n-prefs", "0"], "--n-prefs must be >= 1, got 0"),
+    (["--mu", "0"], "mu must be > 0, got 0.0"),
+    (["--mu", "-1"], "mu must be > 0, got -1.0"),
+    (["--j-ub", "1,2,3"], r"j_ub \[1.0, 2.0, 3.0\] has 3 entries"),
+    (["--env", "atari"], "'atari'.*concave_bandit, walker2d"),
+    (["--physics", "bullet"], "'physics'"),
+    (["--scalarization", "max"], "'max'"),
+    (["--steps-per-pref", "0"], "--steps-per-pref"),
+]
+
+
+@pytest.mark.parametrize("args,message", BAD, ids=[" ".join(a) for a, _ in BAD])
+def test_bad_input_exits_2_and_writes_nothing(args, message, tmp_path, capsys):
+    out = tmp_path / "out"
+    rc = sweep.main([*TINY, *args, "--out", str(out)])
+    err = capsys.readouterr().err
+    assert rc == 2
+    assert len(err.strip().splitlines()) == 1 and err.startswith("error: ")
+    assert __import__("re").search(message, err), err
+    assert not out.exists()
+
+
+def test_unwritable_out_exits_2(tmp_path, capsys):
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    rc = sweep.main([*TINY, "--n-prefs", "2", "--out", str(blocker / "sub")])
+    assert rc == 2 and "can't be written" in capsys.readouterr().err
+    assert not (blocker / "sub").exists()
+
+
+def test_resume_with_a_different_config_names_the_keys(tiny_run, capsys):
+    before = sorted(os.listdir(tiny_run))
+    rc = sweep.main([*TINY, "--n-prefs", "4", "--mu", "0.5", "--out", tiny_run, "--resume"])
+    err = capsys.readouterr().err
+    assert rc == 2 and "train.mu" in err and "0.05" in err and "0.5" in err
+    assert sorted(os.listdir(tiny_run)) == before
+
+
+def test_nan_stops_the_sweep_naming_preference_and_iteration(tmp_path, capsys):
+    out = tmp_path / "nan"
+    rc = sweep.main([*TINY, "--n-prefs", "2", "--critic-lr", "1e38", "--out", str(out)])
+    err = capsys.readouterr().err
+    assert rc == 3
+    assert "NaN" in err and "preference #" in err and "iteration" in err, err
+    assert not (out / "front.json").exists()

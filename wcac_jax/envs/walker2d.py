@@ -1,0 +1,186 @@
+"""Multi-objective Walker2d on MJX (MuJoCo XLA), with the semantics of MO-Gymnasium's
+`mo-walker2d-v5`.
+
+A Brax `PipelineEnv` on the `mjx` backend. One step applies the action (6 torques in
+`[-1, 1]`) for 4 physics substeps of 0.002 s (`dt = 0.008`), and returns
+
+- observation (17): `qpos[1:]` (torso height and angle, 6 joint angles) and
+  `clip(qvel, -10, 10)` (9 velocities), as Gymnasium v5; the torso height is the world
+  height in both models (Brax's model measures `rootz` from 1.25 m, v5's from 0);
+- reward vector (2): `[x_velocity, -sum(a^2)] + healthy_reward`, where `x_velocity` is the
+  torso's forward speed in m/s over the step, `-sum(a^2)` the (negated) control energy,
+  and `healthy_reward = 1` while the walker is healthy and 0 on the step it falls (the v5
+  fix; Brax's own walker pays it on that step too). Falling therefore costs every
+  objective. Reward terms are also in `State.metrics`;
+- `done = 1` when the walker is unhealthy: torso height outside `(0.8, 2.0)` or
+  torso angle `qpos[2]` outside `(-1, 1)` (strict, as Gymnasium). The time limit
+  (`episode_length`, default 500 as in the paper; MO-Gymnasium uses 1000) is applied by
+  `EpisodeWrapper`, which training wraps every environment with.
+
+Resets add uniform noise in `[-5e-3, 5e-3]` to the initial positions and velocities.
+
+Two physics models (`physics=`):
+
+- `"brax"` (default, fast): Brax's walker2d model (Euler integrator, 4 solver
+  iterations, right-foot friction 0.9), MJX's default line search.
+- `"gymnasium-v5"`: Gymnasium's `walker2d_v5.xml`, shipped in `assets/` with its MIT
+  notice (RK4 integrator, friction 1.9 on both feet): the model the paper and
+  MO-Gymnasium use. By default it keeps MuJoCo's solver settings (100 iterations,
+  50 line-search iterations), which is what the conformance test against
+  `mo_gymnasium.make("mo-walker2d-v5")` checks to 1e-3. `solver_iterations` and
+  `ls_iterations` override the solver for speed; see README ("Environment") for what
+  they cost in fidelity and gain in speed, as measured by `experiments/bench_env.py`.
+"""
+
+from __future__ import annotations
+
+import os
+
+import jax
+import jax.numpy as jnp
+import mujoco
+from brax.envs.base import PipelineEnv, State
+from brax.io import mjcf
+
+PHYSICS = ("brax", "gymnasium-v5")
+OBJECTIVE_NAMES = ("forward_velocity", "control")
+DEFAULT_J_UB = (2000.0, 1000.0)  # the paper's utopia point for this task
+
+
+def model_path(physics: str) -> str:
+    """Path of the MJCF file behind a `physics` name."""
+    if physics == "brax":
+        import brax
+
+        return os.path.join(os.path.dirname(brax.__file__), "envs", "assets", "walker2d.xml")
+    if physics == "gymnasium-v5":
+        return os.path.join(os.path.dirname(__file__), "assets", "walker2d_v5.xml")
+    raise ValueError(f"unknown physics {physics!r}; valid: {', '.join(PHYSICS)}")
+
+
+def load_mj_model(
+    physics: str, solver_iterations: int | None = None, ls_iterations: int | None = None
+) -> mujoco.MjModel:
+    """The MuJoCo model of `physics`, with optional solver overrides."""
+    model = mujoco.MjModel.from_xml_path(model_path(physics))
+    if solver_iterations is not None:
+        model.opt.iterations = solver_iterations
+    if ls_iterations is not None:
+        model.opt.ls_iterations = ls_iterations
+    return model
+
+
+class Walker2d(PipelineEnv):
+    """Multi-objective Walker2d on MJX; see the module docstring.
+
+    Args:
+      physics: `"brax"` or `"gymnasium-v5"`.
+      episode_length: time limit in steps, `>= 1` (applied by `EpisodeWrapper`).
+      reset_noise_scale: half-width of the uniform reset noise.
+      solver_iterations: override of MuJoCo's `opt.iterations` (`None`: the model's).
+      ls_iterations: override of MuJoCo's `opt.ls_iterations` (`None`: the model's).
+    """
+
+    num_objectives = 2
+    objective_names = OBJECTIVE_NAMES
+    default_j_ub = DEFAULT_J_UB
+
+    def __init__(
+        self,
+        physics: str = "brax",
+        episode_length: int = 500,
+        reset_noise_scale: float = 5e-3,
+        solver_iterations: int | None = None,
+        ls_iterations: int | None = None,
+    ):
+        if physics not in PHYSICS:
+            raise ValueError(f"unknown physics {physics!r}; valid: {', '.join(PHYSICS)}")
+        if isinstance(episode_length, bool) or not isinstance(episode_length, int):
+            raise ValueError(f"episode_length must be a positive integer, got {episode_length!r}")
+        if episode_length < 1:
+            raise ValueError(f"episode_length must be a positive integer, got {episode_length!r}")
+        for name, value in (
+            ("solver_iterations", solver_iterations),
+            ("ls_iterations", ls_iterations),
+        ):
+            if value is not None and (not isinstance(value, int) or value < 1):
+                raise ValueError(f"{name} must be a positive integer or None, got {value!r}")
+        if not reset_noise_scale >= 0:
+            raise ValueError(f"reset_noise_scale must be >= 0, got {reset_noise_scale!r}")
+        self.physics = physics
+        self.episode_length = episode_length
+        self._noise = float(reset_noise_scale)
+        mj_model = load_mj_model(physics, solver_iterations, ls_iterations)
+        data = mujoco.MjData(mj_model)
+        mujoco.mj_forward(mj_model, data)
+        torso = mujoco.mj_name2id(mj_model, mujoco.mjtObj.mjOBJ_BODY, "torso")
+        # world torso height minus the rootz coordinate: 1.25 for Brax's model, 0 for v5
+        self._z_offset = float(data.xpos[torso, 2] - data.qpos[1])
+        super().__init__(sys=mjcf.load_model(mj_model), backend="mjx", n_frames=4)
+
+    def reset(self, rng: jax.Array) -> State:
+        key_q, key_qd = jax.random.split(rng)
+        lo, hi = -self._noise, self._noise
+        qpos = self.sys.init_q + jax.random.uniform(
+            key_q, (self.sys.q_size(),), minval=lo, maxval=hi
+        )
+        qvel = jax.random.uniform(key_qd, (self.sys.qd_size(),), minval=lo, maxval=hi)
+        pipeline_state = self.pipeline_init(qpos, qvel)
+        zero = jnp.zeros((), jnp.float32)
+        metrics = {
+            "reward_forward": zero,
+            "reward_ctrl": zero,
+            "reward_healthy": zero,
+            "x_position": pipeline_state.q[0],
+            "x_velocity": zero,
+        }
+        return State(
+            pipeline_state, self._obs(pipeline_state), jnp.zeros(2, jnp.float32), zero, metrics
+        )
+
+    def step(self, state: State, action: jax.Array) -> State:
+        ps0 = state.pipeline_state
+        ps = self.pipeline_step(ps0, action)
+        x_velocity = (ps.q[0] - ps0.q[0]) / self.dt
+        healthy = self.is_healthy(self._qpos(ps)).astype(jnp.float32)
+        ctrl = -jnp.sum(jnp.square(action))
+        reward = jnp.stack([x_velocity, ctrl]) + healthy
+        metrics = {
+            "reward_forward": x_velocity,
+            "reward_ctrl": ctrl,
+            "reward_healthy": healthy,
+            "x_position": ps.q[0],
+            "x_velocity": x_velocity,
+        }
+        return state.replace(
+            pipeline_state=ps,
+            obs=self._obs(ps),
+            reward=reward,
+            done=1.0 - healthy,
+            metrics=metrics,
+        )
+
+    @staticmethod
+    def is_healthy(qpos: jax.Array) -> jax.Array:
+        """Torso height `qpos[1]` in `(0.8, 2.0)` and angle `qpos[2]` in `(-1, 1)`.
+
+        `qpos` `[9]` in Gymnasium v5's convention (`qpos[1]` is the world height).
+        """
+        z, angle = qpos[1], qpos[2]
+        return (z > 0.8) & (z < 2.0) & (angle > -1.0) & (angle < 1.0)
+
+    def _qpos(self, pipeline_state) -> jax.Array:
+        """`qpos` in v5's convention: `rootz` as the torso's world height."""
+        return pipeline_state.q.at[1].add(self._z_offset)
+
+    def _obs(self, pipeline_state) -> jax.Array:
+        qvel = jnp.clip(pipeline_state.qd, -10.0, 10.0)
+        return jnp.concatenate([self._qpos(pipeline_state)[1:], qvel])
+
+    @property
+    def observation_size(self) -> int:
+        return 17
+
+    @property
+    def action_size(self) -> int:
+        return 6

@@ -1,0 +1,676 @@
+"""A whole Pareto front in one compiled program: `run_sweep` and `python -m wcac_jax.sweep`.
+
+All preferences (and their `N` environments each) train in ONE compiled program,
+`jit(vmap(chunk))` over the preference axis, with keys and preferences as traced
+arguments. This module is the one impure edge of the package: it owns the host loop
+over chunks, the orbax checkpoints after every chunk, the progress bar, the clocks and
+every file written.
+
+Chunking does not change the numbers: iteration `t` of preference `i` draws its
+randomness from `fold_in(fold_in(key(seed), i), t)`, and every chunk is the same
+compiled program of `ceil(T / chunks)` iterations whose iterations past `T` leave the
+state untouched. `--resume` restores the last checkpoint and continues bit for bit.
+
+Devices: the preference axis is sharded over all local devices (a 1-D mesh named
+`"prefs"`); a preference count that does not divide evenly is padded by repeating the
+last preference, and the padding is dropped from the results. On several hosts, call
+`jax.distributed.initialize()` first on every host (same command, same flags); the mesh
+then spans `jax.devices()` of all hosts, each host feeds its addressable shards, and only
+process 0 should write `--out` (pass a host-local `--out` elsewhere).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import io
+import json
+import math
+import os
+import sys
+import tempfile
+import time
+from dataclasses import dataclass, field
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from wcac_jax import envs, pareto
+from wcac_jax.config import TrainConfig
+from wcac_jax.scalarize import SCALARIZATIONS
+from wcac_jax.train import make_evaluate, make_trainer, resolve_j_ub
+
+PAPER_PREFS = (
+    (1.0, 0.0),
+    (0.9, 0.1),
+    (0.8, 0.2),
+    (0.7, 0.3),
+    (0.5, 0.5),
+    (0.3, 0.7),
+    (0.2, 0.8),
+    (0.1, 0.9),
+    (0.0, 1.0),
+)
+# The newcomer's default: about 10 minutes on a 2-core CPU for 9 preferences.
+DEFAULT_STEPS_PER_PREF = 40_000
+PAPER_STEPS_PER_PREF = 1_000_000
+DEFAULT_HV_REF = {"walker2d": (-100.0, -100.0), "concave_bandit": (0.0, 0.0)}
+
+
+class SweepError(ValueError):
+    """Bad input to a sweep; the CLI prints it as one line and exits with status 2."""
+
+
+class TrainingDiverged(RuntimeError):
+    """NaN appeared during training; the last good checkpoint is kept."""
+
+
+@dataclass(frozen=True)
+class SweepConfig:
+    """Everything that determines a sweep's numbers.
+
+    Attributes:
+      prefs: `P` preference vectors, each on the simplex.
+      env: registered environment name.
+      env_options: keyword options of the environment (e.g. `physics`).
+      train: the per-preference training configuration (its `num_iterations` is
+        derived from `steps_per_pref`).
+      steps_per_pref: environment steps per preference (rounded up to whole iterations).
+      seed: base seed; preference `i` uses `fold_in(key(seed), i)`.
+      eval_episodes: episodes of the mean policy evaluated per preference at the end.
+      hv_ref: hypervolume reference point (`None`: the environment's default).
+    """
+
+    prefs: tuple[tuple[float, ...], ...]
+    env: str = "walker2d"
+    env_options: dict = field(default_factory=dict)
+    train: TrainConfig = field(default_factory=TrainConfig)
+    steps_per_pref: int = DEFAULT_STEPS_PER_PREF
+    seed: int = 0
+    eval_episodes: int = 8
+    hv_ref: tuple[float, ...] | None = None
+
+    @property
+    def num_iterations(self) -> int:
+        """Outer iterations `T` per preference."""
+        return max(1, math.ceil(self.steps_per_pref / self.train.env_steps_per_iteration))
+
+    def train_config(self) -> TrainConfig:
+        return self.train.replace(num_iterations=self.num_iterations)
+
+    def to_dict(self) -> dict:
+        return {
+            "prefs": [list(p) for p in self.prefs],
+            "env": self.env,
+            "env_options": dict(self.env_options),
+            "train": self.train_config().to_dict(),
+            "steps_per_pref": self.steps_per_pref,
+            "seed": self.seed,
+            "eval_episodes": self.eval_episodes,
+            "hv_ref": None if self.hv_ref is None else list(self.hv_ref),
+        }
+
+
+def validate_prefs(prefs, m: int) -> np.ndarray:
+    """Checks `P` preference vectors: length `m`, finite, non-negative, summing to 1
+    within 1e-6 (they are not normalised, so that what runs is what was asked for)."""
+    if len(prefs) < 1:
+        raise SweepError(f"preferences must be a non-empty list of vectors, got {prefs!r}")
+    for i, p in enumerate(prefs):
+        p = np.asarray(p, dtype=np.float64).reshape(-1)
+        if p.shape[0] != m:
+            raise SweepError(
+                f"preference #{i} {p.tolist()} has {p.shape[0]} entries; "
+                f"the environment has {m} objectives"
+            )
+        if not np.all(np.isfinite(p)):
+            raise SweepError(f"preference #{i} {p.tolist()} is not finite")
+        if np.any(p < 0):
+            raise SweepError(f"preference #{i} {p.tolist()} has a negative entry")
+        if abs(p.sum() - 1.0) > 1e-6:
+            raise SweepError(f"preference #{i} {p.tolist()} sums to {p.sum():.6g}, not 1")
+    return np.asarray(prefs, dtype=np.float64)
+
+
+def _make_env(config: SweepConfig):
+    try:
+        return envs.make(config.env, **config.env_options)
+    except (ValueError, TypeError) as err:
+        raise SweepError(str(err)) from None
+
+
+def _write_atomic(path: str, data: bytes) -> None:
+    """Writes `data` to a temporary file beside `path`, then renames it over `path`."""
+    directory = os.path.dirname(path) or "."
+    fd, tmp = tempfile.mkstemp(dir=directory, prefix=".tmp-", suffix=os.path.basename(path))
+    umask = os.umask(0)
+    os.umask(umask)
+    os.fchmod(fd, 0o666 & ~umask)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def _json_bytes(obj) -> bytes:
+    return (json.dumps(obj, indent=2, allow_nan=True) + "\n").encode()
+
+
+def _flatten(d: dict, prefix: str = "") -> dict:
+    out = {}
+    for k, v in d.items():
+        key = f"{prefix}{k}"
+        if isinstance(v, dict):
+            out.update(_flatten(v, key + "."))
+        else:
+            out[key] = v
+    return out
+
+
+def check_output_dir(out: str, config: SweepConfig, resume: bool) -> None:
+    """Checks `out` can be written (creating nothing); on resume, that the config matches."""
+    if resume:
+        path = os.path.join(out, "config.json")
+        if not os.path.isfile(path):
+            raise SweepError(f"--resume: no sweep to resume in {out!r} (no config.json)")
+        with open(path) as f:
+            saved = _flatten(json.load(f))
+        new = _flatten(json.loads(_json_bytes(config.to_dict())))
+        differ = sorted(k for k in set(saved) | set(new) if saved.get(k) != new.get(k))
+        if differ:
+            details = ", ".join(f"{k} (saved {saved.get(k)!r}, now {new.get(k)!r})" for k in differ)
+            raise SweepError(f"--resume: the config in {out!r} differs: {details}")
+        return
+    if os.path.exists(out):
+        if not os.path.isdir(out):
+            raise SweepError(f"--out {out!r} exists and is not a directory")
+        if os.listdir(out):
+            raise SweepError(f"--out {out!r} is not empty (use --resume to continue a sweep)")
+        if not os.access(out, os.W_OK | os.X_OK):
+            raise SweepError(f"--out {out!r} is not writable")
+        return
+    parent = os.path.dirname(os.path.abspath(out))
+    while not os.path.exists(parent):
+        parent = os.path.dirname(parent)
+    if not os.path.isdir(parent) or not os.access(parent, os.W_OK | os.X_OK):
+        raise SweepError(f"--out {out!r} can't be written ({parent!r} is not a writable directory)")
+
+
+class _Progress:
+    """A tqdm bar on a terminal; plain lines otherwise."""
+
+    def __init__(self, total_steps: int, enabled: bool | None):
+        self.total, self.start, self.done0 = total_steps, time.perf_counter(), None
+        tty = sys.stderr.isatty()
+        self.enabled = True if enabled is None else enabled
+        self.bar = None
+        if self.enabled and tty:
+            from tqdm.auto import tqdm
+
+            self.bar = tqdm(total=total_steps, unit="step", unit_scale=True, desc="sweep")
+
+    def update(self, done: int, chunk_s: float, chunk_steps: int):
+        if self.done0 is None:
+            self.done0 = done - chunk_steps
+        rate = chunk_steps / max(chunk_s, 1e-9)
+        if self.bar is not None:
+            self.bar.update(done - self.bar.n)
+            self.bar.set_postfix_str(f"{rate:,.0f} env-steps/s")
+        elif self.enabled:
+            eta = (self.total - done) / max(rate, 1e-9)
+            print(
+                f"[sweep] {done:,}/{self.total:,} env steps, {rate:,.0f} env-steps/s, "
+                f"ETA {eta:,.0f} s",
+                file=sys.stderr,
+                flush=True,
+            )
+
+    def close(self):
+        if self.bar is not None:
+            self.bar.close()
+
+
+def _metric_template(trainer, state, pref) -> dict:
+    shapes = jax.eval_shape(trainer.step, state, pref)[1]
+    return jax.tree.map(lambda s: jnp.zeros(s.shape, s.dtype), shapes)
+
+
+def run_sweep(
+    config: SweepConfig,
+    out: str | None = None,
+    *,
+    resume: bool = False,
+    chunks: int = 4,
+    progress: bool | None = None,
+    stop_after_chunks: int | None = None,
+) -> dict:
+    """Trains every preference of `config` in one compiled program; returns the front.
+
+    Args:
+      config: the sweep.
+      out: output directory (`None`: nothing is written and no checkpoints are kept).
+      resume: continue the sweep checkpointed in `out`.
+      chunks: number of host round-trips (checkpoint, progress) the run is split into.
+      progress: force the progress display on/off (`None`: on for a terminal).
+      stop_after_chunks: stop (as if interrupted) after this many chunks of this call.
+
+    Returns:
+      The `front.json` content as a dict (see README, "Outputs").
+
+    Raises:
+      SweepError: bad input (nothing written).
+      TrainingDiverged: NaN during training (the last good checkpoint is kept).
+    """
+    env = _make_env(config)
+    m = int(env.num_objectives)
+    prefs = validate_prefs(config.prefs, m)
+    train_cfg = config.train_config()
+    try:
+        j_ub = resolve_j_ub(train_cfg, env)
+    except ValueError as err:
+        raise SweepError(str(err)) from None
+    hv_ref = config.hv_ref or DEFAULT_HV_REF.get(config.env, (0.0,) * m)
+    if len(hv_ref) != m:
+        raise SweepError(f"hv_ref {list(hv_ref)} has {len(hv_ref)} entries, expected {m}")
+    if not isinstance(chunks, int) or chunks < 1:
+        raise SweepError(f"chunks must be a positive integer, got {chunks!r}")
+    if out is not None:
+        check_output_dir(out, config, resume)
+
+    n_prefs, n_iters = prefs.shape[0], config.num_iterations
+    n_dev = jax.device_count()
+    n_pad = -n_prefs % n_dev
+    prefs_pad = np.concatenate([prefs, np.repeat(prefs[-1:], n_pad, axis=0)]).astype(np.float32)
+    base = jax.random.key(config.seed)
+    keys = jax.vmap(lambda i: jax.random.fold_in(base, i))(
+        jnp.minimum(jnp.arange(n_prefs + n_pad), n_prefs - 1)
+    )
+    # Auto axes (GSPMD): preferences never communicate, so XLA just splits the batch.
+    mesh = jax.make_mesh((n_dev,), ("prefs",), axis_types=(jax.sharding.AxisType.Auto,))
+    sharded = jax.sharding.NamedSharding(mesh, jax.sharding.PartitionSpec("prefs"))
+    prefs_dev = jax.device_put(jnp.asarray(prefs_pad), sharded)
+    keys_dev = jax.device_put(keys, sharded)
+
+    trainer = make_trainer(train_cfg, env)
+    chunk_len = math.ceil(n_iters / chunks)
+
+    def chunk(state, pref):
+        def body(state, _):
+            active = state.iteration < n_iters
+            template = _metric_template(trainer, state, pref)
+            return jax.lax.cond(active, trainer.step, lambda s, p: (s, template), state, pref)
+
+        return jax.lax.scan(body, state, None, length=chunk_len)
+
+    # every leaf of the state and metrics carries the preference axis first: shard it
+    init_fn = jax.jit(jax.vmap(trainer.init), out_shardings=sharded)
+    chunk_fn = jax.jit(jax.vmap(chunk), donate_argnums=0, out_shardings=(sharded, sharded))
+    state = init_fn(keys_dev, prefs_dev)
+    abstract = jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape, x.dtype), (state, prefs_dev))
+    template = jax.eval_shape(jax.vmap(trainer.step), *abstract)[1]
+    metrics = {k: np.zeros((n_prefs, n_iters, *s.shape[1:]), s.dtype) for k, s in template.items()}
+
+    manager = None
+    if out is not None:
+        import orbax.checkpoint as ocp
+
+        os.makedirs(out, exist_ok=True)
+        if not resume:
+            _write_atomic(os.path.join(out, "config.json"), _json_bytes(config.to_dict()))
+        manager = ocp.CheckpointManager(
+            os.path.abspath(os.path.join(out, "checkpoint")),
+            options=ocp.CheckpointManagerOptions(
+                max_to_keep=1, create=True, enable_async_checkpointing=False
+            ),
+        )
+        if resume and manager.latest_step() is not None:
+            restored = manager.restore(
+                manager.latest_step(),
+                args=ocp.args.StandardRestore({"state": state, "metrics": metrics}),
+            )
+            state, metrics = restored["state"], restored["metrics"]
+
+    done_iters = int(np.asarray(jax.device_get(state.iteration))[0])
+    steps_per_iter = train_cfg.env_steps_per_iteration
+    bar = _Progress(n_iters * steps_per_iter * n_prefs, progress)
+    wall_start = time.perf_counter()
+    chunks_run = 0
+    try:
+        while done_iters < n_iters:
+            if stop_after_chunks is not None and chunks_run >= stop_after_chunks:
+                return {"interrupted": True, "iterations_done": done_iters}
+            t0 = time.perf_counter()
+            state, chunk_metrics = chunk_fn(state, prefs_dev)
+            chunk_metrics = jax.device_get(chunk_metrics)
+            dt = time.perf_counter() - t0
+            hi = min(done_iters + chunk_len, n_iters)
+            chunk_steps = (hi - done_iters) * steps_per_iter * n_prefs
+            for k, v in chunk_metrics.items():
+                metrics[k][:, done_iters:hi] = np.asarray(v)[:n_prefs, : hi - done_iters]
+            _check_finite(metrics, done_iters, hi, prefs, manager)
+            done_iters = hi
+            chunks_run += 1
+            if manager is not None:
+                import orbax.checkpoint as ocp
+
+                manager.save(
+                    done_iters, args=ocp.args.StandardSave({"state": state, "metrics": metrics})
+                )
+                manager.wait_until_finished()
+            bar.update(done_iters * steps_per_iter * n_prefs, dt, chunk_steps)
+    finally:
+        bar.close()
+    train_wall = time.perf_counter() - wall_start
+
+    evaluate = jax.jit(jax.vmap(make_evaluate(train_cfg, env, config.eval_episodes)))
+    eval_keys = jax.vmap(lambda k: jax.random.fold_in(k, 1 << 30))(keys_dev)
+    evaluation = jax.device_get(evaluate(state, eval_keys))
+    wall = time.perf_counter() - wall_start
+
+    front = _front(config, env, prefs, j_ub, hv_ref, metrics, evaluation, train_wall, wall)
+    if out is not None:
+        _write_outputs(out, front, metrics, prefs, env)
+    return front
+
+
+def _check_finite(metrics, lo, hi, prefs, manager):
+    for k, v in metrics.items():
+        bad = ~np.isfinite(v[:, lo:hi].reshape(v.shape[0], hi - lo, -1)).all(axis=-1)
+        if bad.any():
+            i, t = (int(x) for x in np.argwhere(bad)[0])
+            kept = manager.latest_step() if manager is not None else None
+            where = (
+                f"; the last good checkpoint (iteration {kept}) is kept" if kept is not None else ""
+            )
+            raise TrainingDiverged(
+                f"NaN in {k} at preference #{i} {prefs[i].tolist()}, iteration {lo + t}{where}"
+            )
+
+
+def _front(config, env, prefs, j_ub, hv_ref, metrics, evaluation, train_wall, wall) -> dict:
+    n = prefs.shape[0]
+    returns = np.asarray(evaluation["eval/return"])[:n]
+    disc = np.asarray(evaluation["eval/discounted_return"])[:n]
+    length = np.asarray(evaluation["eval/length"])[:n]
+    nd = pareto.nondominated(returns)
+    steps = int(metrics["train/env_steps"][0, -1])
+    rows = []
+    for i in range(n):
+        rows.append(
+            {
+                "pref": prefs[i].tolist(),
+                "return": returns[i].tolist(),
+                "discounted_return": disc[i].tolist(),
+                "episode_length": float(length[i]),
+                "lambda": metrics["train/weights"][i, -1].tolist(),
+                "g_mu": float(metrics["train/g_mu"][i, -1]),
+                "scalarized": float(metrics["train/scalarized"][i, -1]),
+                "j_hat": metrics["train/j_hat"][i, -1].tolist(),
+                "train_episode_return": metrics["train/episode_return"][i, -1].tolist(),
+                "nondominated": bool(nd[i]),
+            }
+        )
+    return {
+        "env": config.env,
+        "objective_names": list(env.objective_names),
+        "j_ub": list(j_ub),
+        "prefs": rows,
+        "hypervolume": pareto.hypervolume(returns, hv_ref),
+        "hypervolume_discounted": pareto.hypervolume(disc, hv_ref),
+        "hv_ref": list(hv_ref),
+        "cardinality": pareto.cardinality(returns),
+        "sparsity": pareto.sparsity(returns),
+        "expected_utility": pareto.expected_utility(
+            returns, pareto.simplex_lattice(len(j_ub), 101)
+        ),
+        "env_steps_per_pref": steps,
+        "env_steps_total": steps * n,
+        "train_wall_s": train_wall,
+        "wall_s": wall,
+        "env_steps_per_s": steps * n / max(train_wall, 1e-9),
+        "devices": [str(d) for d in jax.devices()],
+        "config": config.to_dict(),
+    }
+
+
+def _write_outputs(out, front, metrics, prefs, env):
+    _write_atomic(os.path.join(out, "front.json"), _json_bytes(front))
+    buf = io.StringIO()
+    names = front["objective_names"]
+    writer = csv.writer(buf)
+    writer.writerow(
+        [f"pref_{n}" for n in names]
+        + [f"return_{n}" for n in names]
+        + [f"discounted_return_{n}" for n in names]
+        + [f"lambda_{n}" for n in names]
+        + ["g_mu", "nondominated"]
+    )
+    for row in front["prefs"]:
+        writer.writerow(
+            row["pref"]
+            + row["return"]
+            + row["discounted_return"]
+            + row["lambda"]
+            + [row["g_mu"], int(row["nondominated"])]
+        )
+    _write_atomic(os.path.join(out, "front.csv"), buf.getvalue().encode())
+    npz = io.BytesIO()
+    np.savez(npz, prefs=prefs, objective_names=np.array(names), **metrics)
+    _write_atomic(os.path.join(out, "curves.npz"), npz.getvalue())
+    from wcac_jax import plot
+
+    fig = plot.plot_front(front)
+    png = io.BytesIO()
+    fig.savefig(png, format="png", dpi=120)
+    plot.plt.close(fig)
+    _write_atomic(os.path.join(out, "front.png"), png.getvalue())
+
+
+# ----------------------------------------------------------------------------- CLI
+
+
+def _parse_prefs(text: str) -> tuple[tuple[float, ...], ...]:
+    try:
+        return tuple(
+            tuple(float(x) for x in part.split(",")) for part in text.split(";") if part.strip()
+        )
+    except ValueError:
+        raise SweepError(
+            f"--prefs {text!r} is not a ';'-separated list of ','-separated "
+            "numbers, e.g. '1,0;0.5,0.5;0,1'"
+        ) from None
+
+
+def _parse_floats(text: str, flag: str) -> tuple[float, ...]:
+    try:
+        return tuple(float(x) for x in text.split(","))
+    except ValueError:
+        raise SweepError(f"{flag} {text!r} is not a ','-separated list of numbers") from None
+
+
+def build_parser() -> argparse.ArgumentParser:
+    d = TrainConfig()
+    p = argparse.ArgumentParser(
+        prog="python -m wcac_jax.sweep",
+        description=(
+            "Train a whole Pareto front (one policy per preference) in one compiled "
+            "program and write front.json, front.csv, front.png, curves.npz, config.json "
+            "and a checkpoint to --out. With no flags: the paper's Walker2d setting at "
+            f"{DEFAULT_STEPS_PER_PREF:,} env steps per preference (9 preferences, about "
+            "10 minutes on a 2-core CPU); --steps-per-pref 1000000 is the paper's scale."
+        ),
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+    )
+    g = p.add_mutually_exclusive_group()
+    g.add_argument(
+        "--n-prefs",
+        type=int,
+        default=None,
+        help="N preferences evenly spread on the simplex (default: 9)",
+    )
+    g.add_argument("--prefs", default=None, help="explicit preferences, e.g. '1,0;0.5,0.5;0,1'")
+    g.add_argument(
+        "--preset",
+        choices=["paper"],
+        default=None,
+        help="the paper's nine preferences [1,0] [0.9,0.1] ... [0,1]",
+    )
+    p.add_argument("--env", default="walker2d", help=f"environment: {', '.join(envs.names())}")
+    p.add_argument(
+        "--physics", default=None, help="walker2d physics: brax (fast, default) or gymnasium-v5"
+    )
+    p.add_argument(
+        "--episode-length",
+        type=int,
+        default=None,
+        help="walker2d time limit in steps (default 500, as the paper)",
+    )
+    p.add_argument(
+        "--scalarization", default=d.scalarization, help=f"one of {', '.join(SCALARIZATIONS)}"
+    )
+    p.add_argument(
+        "--steps-per-pref",
+        type=int,
+        default=DEFAULT_STEPS_PER_PREF,
+        help="environment steps per preference",
+    )
+    p.add_argument(
+        "--envs-per-pref",
+        type=int,
+        default=d.num_envs,
+        help="parallel environments N per preference",
+    )
+    p.add_argument("--critic-steps", type=int, default=d.critic_steps, help="K per iteration")
+    p.add_argument("--rollout-steps", type=int, default=d.rollout_steps, help="L per iteration")
+    p.add_argument("--network", default=d.network, help="paper or mlp (actor and critics)")
+    p.add_argument("--width", type=int, default=d.width, help="network width w")
+    p.add_argument("--depth", type=int, default=d.depth, help="network depth D")
+    p.add_argument("--mu", type=float, default=d.mu, help="smoothing temperature mu")
+    p.add_argument(
+        "--j-ub", default=None, help="utopia point, e.g. '2000,1000' (default: the environment's)"
+    )
+    p.add_argument("--gamma", type=float, default=d.gamma, help="discount")
+    p.add_argument("--actor-lr", type=float, default=d.actor_lr, help="alpha")
+    p.add_argument("--critic-lr", type=float, default=d.critic_lr, help="beta")
+    p.add_argument(
+        "--actor-optimizer",
+        default=d.actor_optimizer,
+        help="normalized, normalized_harmonic, adam or sgd",
+    )
+    p.add_argument("--hv-ref", default=None, help="hypervolume reference point, e.g. '-100,-100'")
+    p.add_argument(
+        "--eval-episodes", type=int, default=8, help="evaluation episodes per preference"
+    )
+    p.add_argument("--seed", type=int, default=0, help="random seed")
+    p.add_argument("--out", default=None, help="output directory (default: a new runs/<time>)")
+    p.add_argument("--resume", action="store_true", help="continue the sweep in --out")
+    p.add_argument(
+        "--chunks",
+        type=int,
+        default=10,
+        help="host round-trips (checkpoint + progress); does not change results",
+    )
+    p.add_argument("--quiet", action="store_true", help="no progress output")
+    return p
+
+
+def config_from_args(args) -> SweepConfig:
+    """Builds (and validates) a `SweepConfig` from parsed CLI arguments."""
+    if args.prefs is not None:
+        prefs = _parse_prefs(args.prefs)
+    elif args.preset == "paper":
+        prefs = PAPER_PREFS
+    else:
+        n = 9 if args.n_prefs is None else args.n_prefs
+        if n < 1:
+            raise SweepError(f"--n-prefs must be >= 1, got {n}")
+        m = int(_make_env(SweepConfig(prefs=(), env=args.env)).num_objectives)
+        prefs = tuple(tuple(float(x) for x in p) for p in pareto.simplex_lattice(m, n))
+    env_options = {}
+    if args.physics is not None:
+        env_options["physics"] = args.physics
+    if args.episode_length is not None:
+        env_options["episode_length"] = args.episode_length
+    try:
+        train = TrainConfig(
+            num_envs=args.envs_per_pref,
+            critic_steps=args.critic_steps,
+            rollout_steps=args.rollout_steps,
+            gamma=args.gamma,
+            mu=args.mu,
+            j_ub=None if args.j_ub is None else _parse_floats(args.j_ub, "--j-ub"),
+            scalarization=args.scalarization,
+            network=args.network,
+            width=args.width,
+            depth=args.depth,
+            actor_lr=args.actor_lr,
+            critic_lr=args.critic_lr,
+            actor_optimizer=args.actor_optimizer,
+        )
+    except ValueError as err:
+        raise SweepError(str(err)) from None
+    if args.steps_per_pref < 1:
+        raise SweepError(f"--steps-per-pref must be >= 1, got {args.steps_per_pref}")
+    if args.eval_episodes < 1:
+        raise SweepError(f"--eval-episodes must be >= 1, got {args.eval_episodes}")
+    return SweepConfig(
+        prefs=prefs,
+        env=args.env,
+        env_options=env_options,
+        train=train,
+        steps_per_pref=args.steps_per_pref,
+        seed=args.seed,
+        eval_episodes=args.eval_episodes,
+        hv_ref=None if args.hv_ref is None else _parse_floats(args.hv_ref, "--hv-ref"),
+    )
+
+
+def main(argv=None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        config = config_from_args(args)
+        out = args.out or os.path.join("runs", time.strftime("%Y%m%d-%H%M%S"))
+        if args.resume and args.out is None:
+            raise SweepError("--resume needs --out DIR")
+        front = run_sweep(
+            config,
+            out,
+            resume=args.resume,
+            chunks=args.chunks,
+            progress=False if args.quiet else None,
+        )
+    except SweepError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+    except TrainingDiverged as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 3
+    if not args.quiet:
+        print(
+            f"wrote {out}: {len(front['prefs'])} preferences, hypervolume "
+            f"{front['hypervolume']:.4g}, {front['env_steps_per_s']:,.0f} env-steps/s, "
+            f"{front['wall_s']:.0f} s"
+        )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
+
+
+__all__ = [
+    "PAPER_PREFS",
+    "SweepConfig",
+    "SweepError",
+    "TrainingDiverged",
+    "run_sweep",
+    "validate_prefs",
+    "main",
+]
