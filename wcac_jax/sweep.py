@@ -53,7 +53,7 @@ PAPER_PREFS = (
     (0.0, 1.0),
 )
 # The newcomer's default: about 10 minutes on a 2-core CPU for 9 preferences.
-DEFAULT_STEPS_PER_PREF = 40_000
+DEFAULT_STEPS_PER_PREF = 100_000
 PAPER_STEPS_PER_PREF = 1_000_000
 DEFAULT_HV_REF = {"walker2d": (-100.0, -100.0), "concave_bandit": (0.0, 0.0)}
 
@@ -237,6 +237,17 @@ class _Progress:
             self.bar.close()
 
 
+def _to_checkpoint(tree) -> dict:
+    """The non-empty leaves of `tree` by position (orbax cannot save zero-size arrays,
+    such as MJX's actuator activations of a model without activation dynamics)."""
+    return {str(i): x for i, x in enumerate(jax.tree.leaves(tree)) if np.size(x) > 0}
+
+
+def _from_checkpoint(saved: dict, template):
+    leaves, treedef = jax.tree.flatten(template)
+    return treedef.unflatten([saved.get(str(i), x) for i, x in enumerate(leaves)])
+
+
 def _metric_template(trainer, state, pref) -> dict:
     shapes = jax.eval_shape(trainer.step, state, pref)[1]
     return jax.tree.map(lambda s: jnp.zeros(s.shape, s.dtype), shapes)
@@ -331,27 +342,42 @@ def run_sweep(
             ),
         )
         if resume and manager.latest_step() is not None:
+            template = {"state": state, "metrics": metrics}
             restored = manager.restore(
                 manager.latest_step(),
-                args=ocp.args.StandardRestore({"state": state, "metrics": metrics}),
+                args=ocp.args.StandardRestore(_to_checkpoint(template)),
             )
+            restored = _from_checkpoint(restored, template)
             state, metrics = restored["state"], restored["metrics"]
 
     done_iters = int(np.asarray(jax.device_get(state.iteration))[0])
+    if progress is not False:
+        print(
+            f"[sweep] compiling the training program for {n_prefs} preferences "
+            f"(a minute or two on a 2-core CPU)",
+            file=sys.stderr,
+            flush=True,
+        )
+    t0 = time.perf_counter()
+    chunk_exec = chunk_fn.lower(state, prefs_dev).compile()
+    compile_s = time.perf_counter() - t0
     steps_per_iter = train_cfg.env_steps_per_iteration
     bar = _Progress(n_iters * steps_per_iter * n_prefs, progress)
     wall_start = time.perf_counter()
+    train_s, steps_this_run = 0.0, 0
     chunks_run = 0
     try:
         while done_iters < n_iters:
             if stop_after_chunks is not None and chunks_run >= stop_after_chunks:
                 return {"interrupted": True, "iterations_done": done_iters}
             t0 = time.perf_counter()
-            state, chunk_metrics = chunk_fn(state, prefs_dev)
+            state, chunk_metrics = chunk_exec(state, prefs_dev)
             chunk_metrics = jax.device_get(chunk_metrics)
             dt = time.perf_counter() - t0
+            train_s += dt
             hi = min(done_iters + chunk_len, n_iters)
             chunk_steps = (hi - done_iters) * steps_per_iter * n_prefs
+            steps_this_run += chunk_steps
             for k, v in chunk_metrics.items():
                 metrics[k][:, done_iters:hi] = np.asarray(v)[:n_prefs, : hi - done_iters]
             _check_finite(metrics, done_iters, hi, prefs, manager)
@@ -360,21 +386,25 @@ def run_sweep(
             if manager is not None:
                 import orbax.checkpoint as ocp
 
-                manager.save(
-                    done_iters, args=ocp.args.StandardSave({"state": state, "metrics": metrics})
-                )
+                payload = _to_checkpoint({"state": state, "metrics": metrics})
+                manager.save(done_iters, args=ocp.args.StandardSave(payload))
                 manager.wait_until_finished()
             bar.update(done_iters * steps_per_iter * n_prefs, dt, chunk_steps)
     finally:
         bar.close()
-    train_wall = time.perf_counter() - wall_start
 
     evaluate = jax.jit(jax.vmap(make_evaluate(train_cfg, env, config.eval_episodes)))
     eval_keys = jax.vmap(lambda k: jax.random.fold_in(k, 1 << 30))(keys_dev)
     evaluation = jax.device_get(evaluate(state, eval_keys))
     wall = time.perf_counter() - wall_start
 
-    front = _front(config, env, prefs, j_ub, hv_ref, metrics, evaluation, train_wall, wall)
+    timing = {
+        "compile_s": compile_s,
+        "train_s": train_s,
+        "wall_s": wall + compile_s,
+        "steps_this_run": steps_this_run,
+    }
+    front = _front(config, env, prefs, j_ub, hv_ref, metrics, evaluation, timing)
     if out is not None:
         _write_outputs(out, front, metrics, prefs, env)
     return front
@@ -394,7 +424,7 @@ def _check_finite(metrics, lo, hi, prefs, manager):
             )
 
 
-def _front(config, env, prefs, j_ub, hv_ref, metrics, evaluation, train_wall, wall) -> dict:
+def _front(config, env, prefs, j_ub, hv_ref, metrics, evaluation, timing) -> dict:
     n = prefs.shape[0]
     returns = np.asarray(evaluation["eval/return"])[:n]
     disc = np.asarray(evaluation["eval/discounted_return"])[:n]
@@ -432,9 +462,12 @@ def _front(config, env, prefs, j_ub, hv_ref, metrics, evaluation, train_wall, wa
         ),
         "env_steps_per_pref": steps,
         "env_steps_total": steps * n,
-        "train_wall_s": train_wall,
-        "wall_s": wall,
-        "env_steps_per_s": steps * n / max(train_wall, 1e-9),
+        "compile_s": timing["compile_s"],
+        "train_s": timing["train_s"],
+        "wall_s": timing["wall_s"],
+        # training throughput of this run (all preferences, compilation excluded); the
+        # steps of this process only, so a resumed run reports its own part
+        "env_steps_per_s": timing["steps_this_run"] / max(timing["train_s"], 1e-9),
         "devices": [str(d) for d in jax.devices()],
         "config": config.to_dict(),
     }

@@ -25,11 +25,18 @@ Two physics models (`physics=`):
   iterations, right-foot friction 0.9), MJX's default line search.
 - `"gymnasium-v5"`: Gymnasium's `walker2d_v5.xml`, shipped in `assets/` with its MIT
   notice (RK4 integrator, friction 1.9 on both feet): the model the paper and
-  MO-Gymnasium use. By default it keeps MuJoCo's solver settings (100 iterations,
-  50 line-search iterations), which is what the conformance test against
-  `mo_gymnasium.make("mo-walker2d-v5")` checks to 1e-3. `solver_iterations` and
-  `ls_iterations` override the solver for speed; see README ("Environment") for what
-  they cost in fidelity and gain in speed, as measured by `experiments/bench_env.py`.
+  MO-Gymnasium use. Its solver is capped at 4 iterations and 4 line-search iterations
+  (MuJoCo's defaults are 100 and 50). Measured on the 2-core CPU with
+  `experiments/bench_env.py`, the cap makes MJX 2.3-4.7x faster (batch 16: 1,386 vs
+  604 env-steps/s; batch 1,024: 1,634 vs 347) and costs no measurable fidelity: MuJoCo's
+  Newton solver converges within a few iterations on this model, so `qpos` under the
+  same random actions is bit-identical for 50 steps and within 1.4e-6 after 100, and the
+  one-step conformance test against `mo_gymnasium.make("mo-walker2d-v5")` shows the same
+  errors either way (max 1.1e-4 on observations, 4e-6 on rewards).
+  `solver_iterations=100, ls_iterations=50` restores MuJoCo's settings.
+
+`"brax"` and `"gymnasium-v5"` are different models: from the same state under the same
+random actions their `qpos` differ by 0.009 after one step and by ~1 after 100 steps.
 """
 
 from __future__ import annotations
@@ -77,8 +84,10 @@ class Walker2d(PipelineEnv):
       physics: `"brax"` or `"gymnasium-v5"`.
       episode_length: time limit in steps, `>= 1` (applied by `EpisodeWrapper`).
       reset_noise_scale: half-width of the uniform reset noise.
-      solver_iterations: override of MuJoCo's `opt.iterations` (`None`: the model's).
-      ls_iterations: override of MuJoCo's `opt.ls_iterations` (`None`: the model's).
+      solver_iterations: MuJoCo's `opt.iterations` (`None`: 4 for `"gymnasium-v5"`, the
+        model's own 4 for `"brax"`).
+      ls_iterations: MuJoCo's `opt.ls_iterations` (`None`: 4 for `"gymnasium-v5"`, the
+        model's own for `"brax"`).
     """
 
     num_objectives = 2
@@ -107,6 +116,9 @@ class Walker2d(PipelineEnv):
                 raise ValueError(f"{name} must be a positive integer or None, got {value!r}")
         if not reset_noise_scale >= 0:
             raise ValueError(f"reset_noise_scale must be >= 0, got {reset_noise_scale!r}")
+        if physics == "gymnasium-v5":
+            solver_iterations = 4 if solver_iterations is None else solver_iterations
+            ls_iterations = 4 if ls_iterations is None else ls_iterations
         self.physics = physics
         self.episode_length = episode_length
         self._noise = float(reset_noise_scale)
