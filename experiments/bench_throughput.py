@@ -1,0 +1,197 @@
+"""How close the one-program sweep comes to raw environment stepping, and to the
+alternative of training each preference on its own.
+
+At the same batch (`P` preferences x `N` environments), measures after compilation:
+
+  (a) raw stepping: uniform random actions, the same physics, `jit(scan(vmap(step)))`,
+      no learning: the ceiling;
+  (b) the sweep's training: `jit(vmap(train chunk))` over the `P` preferences;
+  (c) what a user without this engine would run: `P` single-preference trainings
+      (`jit(train chunk)` on one preference), one after another;
+
+and prints env-steps/s of each, the ratios (b)/(a) and (b)/(c), compile times, peak host
+memory and (on a GPU) peak device memory; the same goes to a JSON file. It asserts
+nothing about speed.
+
+    python experiments/bench_throughput.py                  # default sweep size
+    python experiments/bench_throughput.py --quick          # < 5 minutes on a 2-core CPU
+    python experiments/bench_throughput.py --prefs 9 --envs-per-pref 1024   # on a GPU
+"""
+
+from __future__ import annotations
+
+import argparse
+import functools
+import json
+import os
+import platform
+import resource
+import sys
+import time
+
+import jax
+import jax.numpy as jnp
+
+from wcac_jax import envs, pareto
+from wcac_jax.config import TrainConfig
+from wcac_jax.envs.wrappers import EpisodeWrapper
+from wcac_jax.train import make_trainer
+
+
+def _timed(fn, *args):
+    start = time.perf_counter()
+    out = jax.block_until_ready(fn(*args))
+    return out, time.perf_counter() - start
+
+
+def _compile(jitted, *args):
+    start = time.perf_counter()
+    compiled = jitted.lower(*args).compile()
+    return compiled, time.perf_counter() - start
+
+
+def bench_raw(env, batch: int, steps: int) -> dict:
+    """(a): random-action stepping of `batch` auto-resetting environments."""
+    wrapped = EpisodeWrapper(env, env.episode_length)
+
+    def rollout(state, key):
+        def body(state, k):
+            action = jax.random.uniform(k, (batch, env.action_size), minval=-1.0, maxval=1.0)
+            state = jax.vmap(wrapped.step)(state, action)
+            return state, state.reward[:, 0]
+
+        return jax.lax.scan(body, state, jax.random.split(key, steps))
+
+    state = jax.jit(jax.vmap(wrapped.reset))(jax.random.split(jax.random.key(0), batch))
+    fn, compile_s = _compile(jax.jit(rollout), state, jax.random.key(1))
+    _timed(fn, state, jax.random.key(2))  # warm-up
+    _, run_s = _timed(fn, state, jax.random.key(3))
+    return {"env_steps_per_s": batch * steps / run_s, "compile_s": compile_s, "run_s": run_s}
+
+
+def bench_sweep(trainer, config, prefs, iters: int) -> dict:
+    """(b): all preferences in one `jit(vmap(run))`."""
+    keys = jax.random.split(jax.random.key(0), prefs.shape[0])
+    state = jax.jit(jax.vmap(trainer.init))(keys, prefs)
+    run = jax.jit(jax.vmap(functools.partial(trainer.run, num_iterations=iters)))
+    fn, compile_s = _compile(run, state, prefs)
+    state, _ = _timed(fn, state, prefs)  # warm-up chunk (also moves off the start state)
+    _, run_s = _timed(fn, state, prefs)
+    steps = prefs.shape[0] * iters * config.env_steps_per_iteration
+    return {"env_steps_per_s": steps / run_s, "compile_s": compile_s, "run_s": run_s}
+
+
+def bench_sequential(trainer, config, prefs, iters: int) -> dict:
+    """(c): one preference at a time, each its own `jit(run)` call."""
+    run = jax.jit(functools.partial(trainer.run, num_iterations=iters))
+    init = jax.jit(trainer.init)
+    state = init(jax.random.key(0), prefs[0])
+    fn, compile_s = _compile(run, state, prefs[0])
+    total = 0.0
+    for i in range(prefs.shape[0]):
+        state = init(jax.random.key(i), prefs[i])
+        state, _ = _timed(fn, state, prefs[i])  # warm-up
+        _, run_s = _timed(fn, state, prefs[i])
+        total += run_s
+    steps = prefs.shape[0] * iters * config.env_steps_per_iteration
+    return {
+        "env_steps_per_s": steps / total,
+        "compile_s": compile_s,
+        "run_s": total,
+        "note": "compiled once; separate processes would compile once per preference",
+    }
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--env", default="walker2d")
+    parser.add_argument("--physics", default="brax", help="walker2d physics")
+    parser.add_argument("--prefs", type=int, default=9, help="P")
+    parser.add_argument("--envs-per-pref", type=int, default=16, help="N")
+    parser.add_argument("--critic-steps", type=int, default=10, help="K")
+    parser.add_argument("--rollout-steps", type=int, default=10, help="L")
+    parser.add_argument("--width", type=int, default=256)
+    parser.add_argument("--depth", type=int, default=2)
+    parser.add_argument("--network", default="paper")
+    parser.add_argument("--iterations", type=int, default=20, help="timed iterations")
+    parser.add_argument("--quick", action="store_true", help="small sizes, < 5 min on CPU")
+    parser.add_argument("--skip", nargs="*", default=[], choices=["raw", "sweep", "sequential"])
+    parser.add_argument("--out", default="bench_throughput.json")
+    args = parser.parse_args(argv)
+    if args.quick:
+        args.prefs, args.envs_per_pref, args.iterations = min(args.prefs, 3), 4, 3
+        args.width, args.critic_steps, args.rollout_steps = 64, 4, 4
+
+    env_kwargs = {"physics": args.physics} if args.env == "walker2d" else {}
+    env = envs.make(args.env, **env_kwargs)
+    config = TrainConfig(
+        num_envs=args.envs_per_pref,
+        critic_steps=args.critic_steps,
+        rollout_steps=args.rollout_steps,
+        width=args.width,
+        depth=args.depth,
+        network=args.network,
+        normalize_obs=args.env != "concave_bandit",
+    )
+    trainer = make_trainer(config, env)
+    prefs = jnp.asarray(pareto.simplex_lattice(env.num_objectives, args.prefs), jnp.float32)
+    batch = args.prefs * args.envs_per_pref
+    raw_steps = args.iterations * (args.critic_steps + args.rollout_steps)
+
+    result = {
+        "machine": f"{platform.machine()}, {os.cpu_count()} CPUs",
+        "device": str(jax.devices()[0]),
+        "device_kind": jax.devices()[0].device_kind,
+        "jax": jax.__version__,
+        "env": args.env,
+        "physics": args.physics if args.env == "walker2d" else None,
+        "P": args.prefs,
+        "N": args.envs_per_pref,
+        "K": args.critic_steps,
+        "L": args.rollout_steps,
+        "width": args.width,
+        "depth": args.depth,
+        "network": args.network,
+        "timed_iterations": args.iterations,
+    }
+    for name, fn in (
+        ("raw", lambda: bench_raw(env, batch, raw_steps)),
+        ("sweep", lambda: bench_sweep(trainer, config, prefs, args.iterations)),
+        ("sequential", lambda: bench_sequential(trainer, config, prefs, args.iterations)),
+    ):
+        if name in args.skip:
+            result[name] = None
+            continue
+        result[name] = fn()
+        print(
+            f"{name:>10}: {result[name]['env_steps_per_s']:>10,.0f} env-steps/s   "
+            f"compile {result[name]['compile_s']:.1f} s",
+            flush=True,
+        )
+
+    def ratio(a, b):
+        if result.get(a) and result.get(b):
+            return result[a]["env_steps_per_s"] / result[b]["env_steps_per_s"]
+        return None
+
+    result["sweep_over_raw"] = ratio("sweep", "raw")
+    result["sweep_over_sequential"] = ratio("sweep", "sequential")
+    result["peak_host_memory_gib"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20
+    stats = jax.devices()[0].memory_stats() or {}
+    result["peak_device_memory_gib"] = (
+        stats["peak_bytes_in_use"] / 2**30 if "peak_bytes_in_use" in stats else None
+    )
+    fmt = lambda x: "n/a" if x is None else f"{x:.2f}"  # noqa: E731
+    print(
+        f"(b)/(a) sweep / raw = {fmt(result['sweep_over_raw'])}    "
+        f"(b)/(c) sweep / sequential = {fmt(result['sweep_over_sequential'])}    "
+        f"peak host memory {result['peak_host_memory_gib']:.2f} GiB    "
+        f"peak device memory {fmt(result['peak_device_memory_gib'])} GiB"
+    )
+    with open(args.out, "w") as f:
+        json.dump(result, f, indent=2)
+    return result
+
+
+if __name__ == "__main__":
+    sys.exit(0 if main() else 1)

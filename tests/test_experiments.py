@@ -1,0 +1,66 @@
+"""The experiment scripts at their quickest: they run and write every field."""
+
+import json
+import os
+import subprocess
+import sys
+
+import pytest
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def _run(script, *args):
+    proc = subprocess.run(
+        [sys.executable, os.path.join(ROOT, "experiments", script), *args],
+        capture_output=True,
+        text=True,
+        timeout=900,
+    )
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    return proc
+
+
+def test_bench_throughput_quick_writes_every_field(tmp_path):
+    out = tmp_path / "bench.json"
+    proc = _run("bench_throughput.py", "--quick", "--env", "concave_bandit", "--out", str(out))
+    result = json.loads(out.read_text())
+    for key in (
+        "machine",
+        "device",
+        "P",
+        "N",
+        "K",
+        "L",
+        "width",
+        "depth",
+        "sweep_over_raw",
+        "sweep_over_sequential",
+        "peak_host_memory_gib",
+        "peak_device_memory_gib",
+    ):
+        assert key in result, key
+    for part in ("raw", "sweep", "sequential"):
+        assert result[part]["env_steps_per_s"] > 0 and result[part]["compile_s"] > 0
+    assert result["sweep_over_raw"] > 0 and result["sweep_over_sequential"] > 0
+    assert "(b)/(a)" in proc.stdout
+
+
+@pytest.mark.slow
+def test_bench_env_quick_writes_every_field(tmp_path):
+    out = tmp_path / "env.json"
+    _run(
+        "bench_env.py",
+        "--batches",
+        "2",
+        "--steps",
+        "5",
+        "--physics",
+        "brax",
+        "--no-drift",
+        "--out",
+        str(out),
+    )
+    result = json.loads(out.read_text())
+    (row,) = result["stepping"]
+    assert row["physics"] == "brax" and row["batch"] == 2 and row["env_steps_per_s"] > 0
