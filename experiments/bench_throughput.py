@@ -75,7 +75,7 @@ def bench_sweep(trainer, config, prefs, iters: int) -> dict:
     state = jax.jit(jax.vmap(trainer.init))(keys, prefs)
     run = jax.jit(jax.vmap(functools.partial(trainer.run, num_iterations=iters)))
     fn, compile_s = _compile(run, state, prefs)
-    state, _ = _timed(fn, state, prefs)  # warm-up chunk (also moves off the start state)
+    (state, _), _ = _timed(fn, state, prefs)  # warm-up chunk (moves off the start state)
     _, run_s = _timed(fn, state, prefs)
     steps = prefs.shape[0] * iters * config.env_steps_per_iteration
     return {"env_steps_per_s": steps / run_s, "compile_s": compile_s, "run_s": run_s}
@@ -90,7 +90,7 @@ def bench_sequential(trainer, config, prefs, iters: int) -> dict:
     total = 0.0
     for i in range(prefs.shape[0]):
         state = init(jax.random.key(i), prefs[i])
-        state, _ = _timed(fn, state, prefs[i])  # warm-up
+        (state, _), _ = _timed(fn, state, prefs[i])  # warm-up
         _, run_s = _timed(fn, state, prefs[i])
         total += run_s
     steps = prefs.shape[0] * iters * config.env_steps_per_iteration

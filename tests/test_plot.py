@@ -10,31 +10,11 @@ matplotlib.use("Agg")
 import nbformat  # noqa: E402
 import pytest  # noqa: E402
 from nbclient import NotebookClient  # noqa: E402
+from sweep_args import TINY_BANDIT  # noqa: E402
 
 from wcac_jax import plot, sweep  # noqa: E402
 
-TINY = [
-    "--env",
-    "concave_bandit",
-    "--envs-per-pref",
-    "8",
-    "--critic-steps",
-    "2",
-    "--rollout-steps",
-    "4",
-    "--network",
-    "mlp",
-    "--width",
-    "16",
-    "--depth",
-    "1",
-    "--steps-per-pref",
-    "1200",
-    "--eval-episodes",
-    "2",
-    "--n-prefs",
-    "5",
-]
+TINY = [*TINY_BANDIT, "--n-prefs", "5"]
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 

@@ -9,30 +9,11 @@ import sys
 
 import numpy as np
 import pytest
+from sweep_args import TINY_BANDIT
 
 from wcac_jax import sweep
 
-TINY = [
-    "--env",
-    "concave_bandit",
-    "--envs-per-pref",
-    "8",
-    "--critic-steps",
-    "2",
-    "--rollout-steps",
-    "4",
-    "--network",
-    "mlp",
-    "--width",
-    "16",
-    "--depth",
-    "1",
-    "--steps-per-pref",
-    "1200",
-    "--eval-episodes",
-    "2",
-    "--quiet",
-]
+TINY = [*TINY_BANDIT, "--quiet"]
 # slow enough (about a second per chunk) that a SIGKILL lands between chunks
 SLOW = [
     "--env",

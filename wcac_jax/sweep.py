@@ -52,7 +52,7 @@ PAPER_PREFS = (
     (0.1, 0.9),
     (0.0, 1.0),
 )
-# The newcomer's default: about 10 minutes on a 2-core CPU for 9 preferences.
+# The newcomer's default: about 8 minutes on a 2-core CPU for 9 preferences (measured).
 DEFAULT_STEPS_PER_PREF = 100_000
 PAPER_STEPS_PER_PREF = 1_000_000
 DEFAULT_HV_REF = {"walker2d": (-100.0, -100.0), "concave_bandit": (0.0, 0.0)}
@@ -537,7 +537,7 @@ def build_parser() -> argparse.ArgumentParser:
             "program and write front.json, front.csv, front.png, curves.npz, config.json "
             "and a checkpoint to --out. With no flags: the paper's Walker2d setting at "
             f"{DEFAULT_STEPS_PER_PREF:,} env steps per preference (9 preferences, about "
-            "10 minutes on a 2-core CPU); --steps-per-pref 1000000 is the paper's scale."
+            "8 minutes on a 2-core CPU); --steps-per-pref 1000000 is the paper's scale."
         ),
         formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )

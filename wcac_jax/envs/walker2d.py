@@ -139,13 +139,7 @@ class Walker2d(PipelineEnv):
         qvel = jax.random.uniform(key_qd, (self.sys.qd_size(),), minval=lo, maxval=hi)
         pipeline_state = self.pipeline_init(qpos, qvel)
         zero = jnp.zeros((), jnp.float32)
-        metrics = {
-            "reward_forward": zero,
-            "reward_ctrl": zero,
-            "reward_healthy": zero,
-            "x_position": pipeline_state.q[0],
-            "x_velocity": zero,
-        }
+        metrics = self._metrics(zero, zero, zero, pipeline_state.q[0])
         return State(
             pipeline_state, self._obs(pipeline_state), jnp.zeros(2, jnp.float32), zero, metrics
         )
@@ -157,13 +151,7 @@ class Walker2d(PipelineEnv):
         healthy = self.is_healthy(self._qpos(ps)).astype(jnp.float32)
         ctrl = -jnp.sum(jnp.square(action))
         reward = jnp.stack([x_velocity, ctrl]) + healthy
-        metrics = {
-            "reward_forward": x_velocity,
-            "reward_ctrl": ctrl,
-            "reward_healthy": healthy,
-            "x_position": ps.q[0],
-            "x_velocity": x_velocity,
-        }
+        metrics = self._metrics(x_velocity, ctrl, healthy, ps.q[0])
         return state.replace(
             pipeline_state=ps,
             obs=self._obs(ps),
@@ -171,6 +159,17 @@ class Walker2d(PipelineEnv):
             done=1.0 - healthy,
             metrics=metrics,
         )
+
+    @staticmethod
+    def _metrics(x_velocity, ctrl, healthy, x_position) -> dict:
+        """Each reward term separately (in `State.metrics`)."""
+        return {
+            "reward_forward": x_velocity,
+            "reward_ctrl": ctrl,
+            "reward_healthy": healthy,
+            "x_position": x_position,
+            "x_velocity": x_velocity,
+        }
 
     @staticmethod
     def is_healthy(qpos: jax.Array) -> jax.Array:

@@ -1,0 +1,7 @@
+"""Command-line arguments of a tiny concave-bandit sweep (compiles in seconds)."""
+
+TINY_BANDIT = [
+    *("--env", "concave_bandit", "--envs-per-pref", "8", "--critic-steps", "2"),
+    *("--rollout-steps", "4", "--network", "mlp", "--width", "16", "--depth", "1"),
+    *("--steps-per-pref", "1200", "--eval-episodes", "2"),
+]
