@@ -100,3 +100,38 @@ def test_optimizers():
     np.testing.assert_allclose(steps, [0.1, 0.05, 0.1 / 3], rtol=1e-4)  # alpha / (t + 1)
     with pytest.raises(ValueError, match="'lbfgs'"):
         actor.make_optimizer("lbfgs", 0.1)
+
+
+@pytest.mark.parametrize(
+    "vectors,expected",
+    [
+        ([[1.0, 0.0], [0.0, 1.0]], [0.5, 0.5]),
+        ([[1.0, 0.0], [1.0, 1.0]], [1.0, 0.0]),  # the segment's closest point is g1
+        ([[2.0, 0.0], [0.0, 1.0]], [0.2, 0.8]),  # min ||(2(1-g), g)||^2 at g = 0.8
+        ([[1.0, 0, 0], [0, 1.0, 0], [0, 0, 1.0]], [1 / 3, 1 / 3, 1 / 3]),
+    ],
+)
+def test_min_norm_weights_by_hand(vectors, expected):
+    g = jnp.array(vectors)
+    lam = actor.min_norm_weights(g @ g.T)
+    np.testing.assert_allclose(lam, expected, atol=1e-4)
+
+
+def test_mgda_direction_descends_every_objective():
+    params = NetParams({"mean": jnp.array(0.1), "scale": jnp.array(0.3)}, {})
+
+    def policy(params, obs):  # two trainable parameters, so the gradients can conflict
+        mean = params.trainable["mean"] + params.trainable["scale"] * obs[..., :1]
+        return mean, jnp.log(jnp.array([SIGMA]))
+
+    obs = jax.random.normal(jax.random.key(0), (512, 1))
+    action = jax.random.normal(jax.random.key(1), (512, 1))
+    adv = jnp.stack([action[:, 0], -action[:, 0] * obs[:, 0]], axis=1)
+    pref = jnp.array([0.5, 0.5])
+    d, lam = actor.mgda_direction(policy, params, obs, action, adv, pref)
+    np.testing.assert_allclose(jnp.sum(lam), 1.0, rtol=1e-6)
+    grads = actor.objective_gradients(policy, params, obs, action, adv)
+    flat_d = jnp.stack([d["mean"], d["scale"]])
+    flat_g = jnp.stack([grads["mean"], grads["scale"]], axis=1) * pref[:, None]  # [m, 2]
+    # -d is the min-norm point v of the hull: v . (p_i g_i) >= ||v||^2 for every i
+    assert jnp.all(flat_g @ (-flat_d) >= jnp.sum(flat_d**2) * (1 - 1e-3))

@@ -140,3 +140,14 @@ def test_wrong_j_ub_length_is_rejected(env):
 def test_config_rejects_bad_values(field, value):
     with pytest.raises(ValueError, match=field):
         TrainConfig(**{field: value})
+
+
+def test_mgda_direction_trains_in_the_same_program_shape(env):
+    config = BANDIT.replace(scalarization="mgda", num_iterations=50)
+    states, metrics = jax.jit(jax.vmap(make_train(config, env)))(
+        jax.random.split(jax.random.key(0), len(PREFS)), PREFS
+    )
+    assert bool(jnp.all(jnp.isfinite(metrics["train/j_hat"])))
+    np.testing.assert_allclose(jnp.sum(metrics["train/weights"], -1), 1.0, rtol=1e-4)
+    theta = _learned_theta(config, env, states)
+    assert np.all((theta >= 0) & (theta <= math.pi / 2))

@@ -157,3 +157,62 @@ def make_optimizer(kind: str, learning_rate: float) -> optax.GradientTransformat
     if kind == "sgd":
         return optax.sgd(learning_rate)
     raise ValueError(f"unknown actor optimizer {kind!r}; valid: {', '.join(ACTOR_OPTIMIZERS)}")
+
+
+def min_norm_weights(gram: chex.Array, num_steps: int = 100) -> chex.Array:
+    """The convex weights of the min-norm point of a set of vectors, from their Gram matrix.
+
+    Solves `min_{lambda in simplex} lambda^T G lambda` (`G_ij = g_i . g_j`) by Frank-Wolfe
+    with exact line search (MGDA-UB, Sener & Koltun 2018): the result's combination
+    `v = sum_i lambda_i g_i` satisfies `v . g_i >= ||v||^2` for every `i` at the optimum.
+
+    Args:
+      gram: `[m, m]` Gram matrix.
+      num_steps: Frank-Wolfe iterations (exact for `m = 2` after one step).
+
+    Returns:
+      `[m]` weights on the simplex.
+    """
+    chex.assert_rank(gram, 2)
+    m = gram.shape[0]
+
+    def step(_, lam):
+        g_lam = gram @ lam
+        t = jnp.argmin(g_lam)
+        vv, vt, tt = lam @ g_lam, g_lam[t], gram[t, t]
+        denom = vv - 2.0 * vt + tt
+        gamma = jnp.where(denom > 1e-20, jnp.clip((vv - vt) / jnp.maximum(denom, 1e-20), 0, 1), 0)
+        return (1.0 - gamma) * lam + gamma * jax.nn.one_hot(t, m, dtype=lam.dtype)
+
+    return jax.lax.fori_loop(0, num_steps, step, jnp.full((m,), 1.0 / m, gram.dtype))
+
+
+def mgda_direction(
+    policy_apply: PolicyApply,
+    params: NetParams,
+    obs: chex.Array,
+    action: chex.Array,
+    advantages: chex.Array,
+    pref: chex.Array,
+) -> tuple[Any, chex.Array]:
+    """MGDA's common-descent direction (the MOAC-style baseline of the paper's Remark 2).
+
+    The min-norm point `v = sum_i lambda_i p_i gradJ_i` of the convex hull of the
+    preference-scaled policy gradients (`m` backward passes); `d = -v` is a descent
+    direction for every objective at once (`-d . gradJ_i >= 0`), converging to a Pareto
+    *stationary* policy. Scaling by `p` lets the preference weigh the objectives (with
+    equal preferences it is plain MGDA; `p_i = 0` drops objective `i`).
+
+    Args: as `direction`, without the scalarization weights.
+
+    Returns:
+      `(d, lambda)`: the direction (like `params.trainable`) and the `[m]` MGDA weights.
+    """
+    grads = objective_gradients(policy_apply, params, obs, action, advantages)
+    scaled = jax.tree.map(lambda g: g * pref.reshape((-1,) + (1,) * (g.ndim - 1)), grads)
+    flat = jnp.concatenate(
+        [g.reshape(g.shape[0], -1) for g in jax.tree.leaves(scaled)], axis=1
+    )  # [m, n_params]
+    lam = min_norm_weights(flat @ flat.T)
+    d = jax.tree.map(lambda g: -jnp.tensordot(lam, g, axes=1), scaled)
+    return d, lam

@@ -29,7 +29,9 @@ class TrainConfig:
       gamma: discount.
       mu: smoothing temperature of `smooth_wc`.
       j_ub: utopia point, one entry per objective; `None` takes the environment's default.
-      scalarization: `"smooth_wc"` (the method), `"wc"` or `"linear"`.
+      scalarization: the actor's direction: `"smooth_wc"` (the method), `"wc"`,
+        `"linear"`, or `"mgda"` (MGDA's common-descent direction, a baseline; see
+        `actor.mgda_direction`).
       network: `"paper"` (the paper's ReLU network; observations are then projected to
         the unit sphere after normalisation) or `"mlp"` (a trainable flax MLP), for the
         actor and the critics alike.
@@ -90,7 +92,7 @@ class TrainConfig:
                 raise ValueError(f"j_ub must be finite, got {self.j_ub!r}")
             object.__setattr__(self, "j_ub", j_ub)
         choices = {
-            "scalarization": tuple(SCALARIZATIONS),
+            "scalarization": (*SCALARIZATIONS, "mgda"),
             "network": NETWORK_KINDS,
             "actor_optimizer": ACTOR_OPTIMIZERS,
         }

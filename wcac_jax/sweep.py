@@ -566,7 +566,9 @@ def build_parser() -> argparse.ArgumentParser:
         help="walker2d time limit in steps (default 500, as the paper)",
     )
     p.add_argument(
-        "--scalarization", default=d.scalarization, help=f"one of {', '.join(SCALARIZATIONS)}"
+        "--scalarization",
+        default=d.scalarization,
+        help=f"actor direction: one of {', '.join(SCALARIZATIONS)}, mgda",
     )
     p.add_argument(
         "--steps-per-pref",

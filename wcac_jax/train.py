@@ -129,7 +129,9 @@ def make_trainer(config: TrainConfig, env) -> Trainer:
     obs_size = int(env.observation_size)
     act_size = int(env.action_size)
     j_ub = jnp.asarray(resolve_j_ub(config, env), jnp.float32)
-    scal = scalarize.get(config.scalarization)
+    use_mgda = config.scalarization == "mgda"
+    # MGDA has no scalarization of its own; its progress is reported with `smooth_wc`
+    scal = scalarize.get("smooth_wc" if use_mgda else config.scalarization)
     n_envs, gamma = config.num_envs, config.gamma
 
     wrapped = EpisodeWrapper(env, env.episode_length)
@@ -247,8 +249,13 @@ def make_trainer(config: TrainConfig, env) -> Trainer:
         adv = actor.td_advantages(v, flat.reward, v_next, flat.terminal, gamma)  # [M, m]
         start_obs = prep(env_state.info["first_obs"])
         j_hat = actor.objective_estimates(critic.values(value_net.apply, avg, start_obs))
-        weights = scal.weights(j_hat, pref, j_ub, config.mu)
-        d = actor.direction(policy.apply, state.actor, obs_in, flat.action, adv, weights, pref)
+        if use_mgda:
+            d, weights = actor.mgda_direction(
+                policy.apply, state.actor, obs_in, flat.action, adv, pref
+            )
+        else:
+            weights = scal.weights(j_hat, pref, j_ub, config.mu)
+            d = actor.direction(policy.apply, state.actor, obs_in, flat.action, adv, weights, pref)
         updates, opt_state = optimizer.update(d, state.actor_opt_state, state.actor.trainable)
         new_actor = state.actor.replace(
             trainable=optax.apply_updates(state.actor.trainable, updates)
