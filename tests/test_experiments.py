@@ -64,3 +64,22 @@ def test_bench_env_quick_writes_every_field(tmp_path):
     result = json.loads(out.read_text())
     (row,) = result["stepping"]
     assert row["physics"] == "brax" and row["batch"] == 2 and row["env_steps_per_s"] > 0
+
+
+def test_pareto_exploration_quick_writes_its_schema(tmp_path):
+    _run("pareto_exploration.py", "--quick", "--out", str(tmp_path))
+    result = json.loads((tmp_path / "exploration.json").read_text())
+    assert result["problem"] == "concave_bandit" and len(result["prefs"]) == 3
+    assert set(result["directions"]) == {"smooth_wc", "wc", "linear", "mgda"}
+    for summary in result["directions"].values():
+        for key in (
+            "distinct_points",
+            "max_distance_to_front",
+            "hypervolume_ratio",
+            "largest_theta_gap",
+            "theta",
+            "points",
+        ):
+            assert key in summary, key
+        assert len(summary["theta"]) == 3
+    assert (tmp_path / "exploration.png").stat().st_size > 1000

@@ -90,23 +90,28 @@ def paper_network(in_dim: int, out_dim: int, width: int, depth: int) -> Network:
 class _MLP(nn.Module):
     hidden: tuple[int, ...]
     out_dim: int
+    out_scale: float = 1.0
 
     @nn.compact
     def __call__(self, x):
         for size in self.hidden:
             x = nn.relu(nn.Dense(size)(x))
-        return nn.Dense(self.out_dim)(x)
+        init = nn.initializers.variance_scaling(self.out_scale**2, "fan_in", "truncated_normal")
+        return nn.Dense(self.out_dim, kernel_init=init)(x)
 
 
-def mlp_network(in_dim: int, out_dim: int, width: int, depth: int) -> Network:
+def mlp_network(
+    in_dim: int, out_dim: int, width: int, depth: int, out_scale: float = 1.0
+) -> Network:
     """A conventional fully trainable ReLU MLP (flax), `depth` hidden layers of `width`.
 
     Every parameter (kernels and biases, LeCun-normal init) is trainable; `fixed` is empty.
-    The output layer is initialised like the hidden ones.
+    The output layer's initial weights are scaled by `out_scale` (policies use 0.01, as is
+    common practice, so that every initial mean action lies well inside the bounds).
     """
     if depth < 1 or width < 1:
         raise ValueError(f"mlp_network needs depth >= 1 and width >= 1, got {depth=}, {width=}")
-    module = _MLP(hidden=(width,) * depth, out_dim=out_dim)
+    module = _MLP(hidden=(width,) * depth, out_dim=out_dim, out_scale=out_scale)
 
     def init(key: chex.PRNGKey) -> NetParams:
         return NetParams(trainable=module.init(key, jnp.zeros((in_dim,))), fixed={})
@@ -117,12 +122,16 @@ def mlp_network(in_dim: int, out_dim: int, width: int, depth: int) -> Network:
     return Network(init, apply)
 
 
-def make_network(kind: str, in_dim: int, out_dim: int, width: int, depth: int) -> Network:
-    """Builds a network by kind: `"paper"` (`paper_network`) or `"mlp"` (`mlp_network`)."""
+def make_network(
+    kind: str, in_dim: int, out_dim: int, width: int, depth: int, policy_head: bool = False
+) -> Network:
+    """Builds a network by kind: `"paper"` (`paper_network`, exactly as the paper
+    initialises it, also for a policy) or `"mlp"` (`mlp_network`; with `policy_head`, the
+    output layer starts 100x smaller so that initial mean actions are near 0)."""
     if kind == "paper":
         return paper_network(in_dim, out_dim, width, depth)
     if kind == "mlp":
-        return mlp_network(in_dim, out_dim, width, depth)
+        return mlp_network(in_dim, out_dim, width, depth, out_scale=0.01 if policy_head else 1.0)
     raise ValueError(f"unknown network kind {kind!r}; valid: {', '.join(NETWORK_KINDS)}")
 
 

@@ -139,7 +139,9 @@ def make_trainer(config: TrainConfig, env) -> Trainer:
     v_step = jax.vmap(wrapped.step)
 
     policy = networks.gaussian_policy(
-        networks.make_network(config.network, obs_size, act_size, config.width, config.depth),
+        networks.make_network(
+            config.network, obs_size, act_size, config.width, config.depth, policy_head=True
+        ),
         act_size,
         config.log_std_init,
         config.learn_log_std,
