@@ -8,7 +8,7 @@ import pytest
 
 from wcac_jax import actor, scalarize
 from wcac_jax.envs import concave_bandit
-from wcac_jax.networks import NetParams
+from wcac_jax.networks import NetParams, gaussian_log_prob
 
 SIGMA = 0.2
 
@@ -29,10 +29,10 @@ def test_objective_estimates_mean_over_start_states():
     )
 
 
-def _mean_policy(params, obs):
-    """A policy whose mean is one trainable scalar (independent of the observation)."""
+def _mean_policy(params, obs, action):
+    """log pi(a|s) of a Gaussian whose mean is one trainable scalar (whatever the obs)."""
     mean = jnp.broadcast_to(params.trainable["mean"], (*obs.shape[:-1], 1))
-    return mean, params.fixed["log_std"]
+    return gaussian_log_prob(mean, params.fixed["log_std"], action)
 
 
 def _exact_j(mean):
@@ -120,9 +120,9 @@ def test_min_norm_weights_by_hand(vectors, expected):
 def test_mgda_direction_descends_every_objective():
     params = NetParams({"mean": jnp.array(0.1), "scale": jnp.array(0.3)}, {})
 
-    def policy(params, obs):  # two trainable parameters, so the gradients can conflict
+    def policy(params, obs, action):  # two parameters, so the gradients can conflict
         mean = params.trainable["mean"] + params.trainable["scale"] * obs[..., :1]
-        return mean, jnp.log(jnp.array([SIGMA]))
+        return gaussian_log_prob(mean, jnp.log(jnp.array([SIGMA])), action)
 
     obs = jax.random.normal(jax.random.key(0), (512, 1))
     action = jax.random.normal(jax.random.key(1), (512, 1))

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from brax.envs.base import Env, State
 
-from wcac_jax import envs
+from wcac_jax import envs, scalarize
 from wcac_jax.envs import concave_bandit as cb
 from wcac_jax.envs.wrappers import EpisodeWrapper
 
@@ -85,3 +85,47 @@ def test_episode_wrapper_time_limit_terminal_and_auto_reset(fall):
     assert float(state.done) == 0.0 and float(state.obs[0]) == 1.0
     with pytest.raises(ValueError, match="episode_length"):
         EpisodeWrapper(_Counter(fall), 0)
+
+
+def test_tabular_momdp_exact_values_match_monte_carlo():
+    env = envs.make("tabular_momdp", episode_length=200)
+    assert env.num_actions == 3 and env.observation_size == 4
+    pi = jnp.array([[0.2, 0.3, 0.5], [1.0, 0.0, 0.0], [0.1, 0.1, 0.8], [0.5, 0.5, 0.0]])
+    exact = env.exact_objectives(pi)
+    # Bellman equation holds for the exact values
+    v = env.exact_values(pi)
+    r_pi = jnp.einsum("sa,sam->sm", pi, env.rewards)
+    p_pi = jnp.einsum("sa,sat->st", pi, env.kernel)
+    np.testing.assert_allclose(v, r_pi + env.gamma * p_pi @ v, rtol=1e-5)
+    wrapped = EpisodeWrapper(env, env.episode_length)
+
+    @jax.jit
+    def discounted_return(key):
+        key_reset, key_run = jax.random.split(key)
+        state = wrapped.reset(key_reset)
+
+        def body(carry, k):
+            state, ret, disc = carry
+            s = state.pipeline_state["s"]
+            action = jax.random.categorical(k, jnp.log(pi[s]))
+            state = wrapped.step(state, action)
+            return (state, ret + disc * state.reward, disc * env.gamma), None
+
+        init = (state, jnp.zeros(2), jnp.ones(()))
+        (_, ret, _), _ = jax.lax.scan(body, init, jax.random.split(key_run, 150))
+        return ret
+
+    returns = jax.vmap(discounted_return)(jax.random.split(jax.random.key(0), 4000))
+    np.testing.assert_allclose(jnp.mean(returns, axis=0), exact, rtol=0.02)
+
+
+def test_tabular_momdp_optimum_beats_every_deterministic_policy():
+    import itertools
+
+    env = envs.make("tabular_momdp", num_states=3, num_actions=2)
+    pref, j_ub, mu = jnp.array([0.5, 0.5]), jnp.asarray(env.default_j_ub), 0.1
+    _, g_star = env.optimal_scalarized(pref, j_ub, mu)
+    for actions in itertools.product(range(2), repeat=3):
+        pi = jax.nn.one_hot(jnp.array(actions), 2)
+        g = scalarize.smooth_wc(env.exact_objectives(pi), pref, j_ub, mu)
+        assert float(g_star) <= float(g) + 1e-4

@@ -83,3 +83,24 @@ def test_pareto_exploration_quick_writes_its_schema(tmp_path):
             assert key in summary, key
         assert len(summary["theta"]) == 3
     assert (tmp_path / "exploration.png").stat().st_size > 1000
+
+
+def test_convergence_rate_quick_writes_its_schema(tmp_path):
+    _run("convergence_rate.py", "--quick", "--out", str(tmp_path))
+    result = json.loads((tmp_path / "convergence.json").read_text())
+    assert result["env"]["name"] == "tabular_momdp"
+    for res in result["results"]:
+        assert res["t"] == [0, 2, 4]
+        for p in res["prefs"]:
+            for key in (
+                "pref",
+                "g_star",
+                "initial_gap",
+                "final_gap",
+                "final_over_initial",
+                "slope",
+                "gap",
+            ):
+                assert key in p, key
+            assert p["initial_gap"] > 0  # the initial policy is not optimal
+    assert (tmp_path / "convergence.png").stat().st_size > 1000

@@ -88,3 +88,30 @@ def test_gaussian_policy_log_prob_and_parameters():
     # one-D N(1, 0.5^2) at 2: -0.5 * 4 - log 0.5 - 0.5 log(2 pi)
     lp = networks.gaussian_log_prob(jnp.ones(1), jnp.log(jnp.full(1, 0.5)), jnp.full(1, 2.0))
     assert float(lp) == pytest.approx(-2.0 - math.log(0.5) - 0.5 * math.log(2 * math.pi), rel=1e-6)
+
+
+def test_categorical_policy_by_hand():
+    net = networks.paper_network(2, 3, 4, 1)
+    policy = networks.categorical_policy(net)
+    logits = jnp.log(jnp.array([[0.2, 0.3, 0.5], [0.6, 0.2, 0.2]]))
+    np.testing.assert_allclose(
+        policy.log_prob(logits, jnp.array([2, 0])), jnp.log(jnp.array([0.5, 0.6])), rtol=1e-6
+    )
+    np.testing.assert_array_equal(policy.mode(logits), [2, 0])
+    expected = -(0.2 * math.log(0.2) + 0.3 * math.log(0.3) + 0.5 * math.log(0.5))
+    assert float(policy.entropy(logits)[0]) == pytest.approx(expected, rel=1e-5)
+    draws = policy.sample(jax.random.key(0), jnp.broadcast_to(logits[0], (20000, 3)))
+    np.testing.assert_allclose(jnp.bincount(draws, length=3) / 20000, [0.2, 0.3, 0.5], atol=0.02)
+    params = policy.init(jax.random.key(1))
+    assert policy.apply(params, jnp.ones((5, 2))).shape == (5, 3)
+
+
+def test_gaussian_policy_interface():
+    policy = networks.gaussian_policy(networks.paper_network(2, 2, 4, 1), 2, -1.0)
+    dist = policy.apply(policy.init(jax.random.key(0)), jnp.ones((3, 2)))
+    np.testing.assert_array_equal(policy.mode(dist), dist[0])
+    np.testing.assert_array_equal(policy.to_env(jnp.array([2.0, -3.0, 0.5])), [1.0, -1.0, 0.5])
+    # entropy of N(mu, e^-2 I) in 2-D: 2 * (-1 + 0.5 log(2 pi e))
+    assert float(policy.entropy(dist)[0]) == pytest.approx(
+        2 * (-1 + 0.5 * math.log(2 * math.pi * math.e)), rel=1e-6
+    )

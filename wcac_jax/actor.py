@@ -24,9 +24,10 @@ import jax
 import jax.numpy as jnp
 import optax
 
-from wcac_jax.networks import NetParams, gaussian_log_prob
+from wcac_jax.networks import NetParams
 
-PolicyApply = Callable[[NetParams, chex.Array], tuple[chex.Array, chex.Array]]
+# `(params, obs [M, obs], action [M, ...]) -> log pi(a | s) [M]`
+LogProb = Callable[[NetParams, chex.Array, chex.Array], chex.Array]
 
 ACTOR_OPTIMIZERS = ("normalized", "normalized_harmonic", "adam", "sgd")
 
@@ -54,14 +55,8 @@ def objective_estimates(start_values: chex.Array) -> chex.Array:
     return jnp.mean(start_values, axis=0)
 
 
-def log_prob(policy_apply: PolicyApply, params: NetParams, obs, action) -> chex.Array:
-    """`log pi(a | s)` of the unclipped action. obs `[M, obs]`, action `[M, act]` -> `[M]`."""
-    mean, log_std = policy_apply(params, obs)
-    return gaussian_log_prob(mean, log_std, action)
-
-
 def surrogate(
-    policy_apply: PolicyApply,
+    log_prob: LogProb,
     trainable: Any,
     fixed: Any,
     obs: chex.Array,
@@ -71,16 +66,17 @@ def surrogate(
     """`mean_M(coeff * log pi(a | s))`: its gradient is `mean_M(coeff * psi)`.
 
     Args:
+      log_prob: the policy's `log pi(a | s)` (of the unclipped action).
       trainable, fixed: the policy's parameters (differentiated w.r.t. `trainable`).
-      obs: `[M, obs]`; action: `[M, act]`; coeff: `[M]` (treated as a constant).
+      obs: `[M, obs]`; action: `[M, act]` or `[M]`; coeff: `[M]` (treated as a constant).
     """
-    chex.assert_rank([obs, action, coeff], [2, 2, 1])
-    lp = log_prob(policy_apply, NetParams(trainable, fixed), obs, action)
+    chex.assert_rank([obs, coeff], [2, 1])
+    lp = log_prob(NetParams(trainable, fixed), obs, action)
     return jnp.mean(jax.lax.stop_gradient(coeff) * lp)
 
 
 def direction(
-    policy_apply: PolicyApply,
+    log_prob: LogProb,
     params: NetParams,
     obs: chex.Array,
     action: chex.Array,
@@ -91,10 +87,10 @@ def direction(
     """The descent direction `d = -sum_i w_i p_i gradJ_i`, in one backward pass.
 
     Args:
-      policy_apply: the policy's `apply`.
+      log_prob: the policy's `log pi(a | s)`, `(params, obs, action) -> [M]`.
       params: the policy's parameters.
       obs: `[M, obs]` preprocessed observations.
-      action: `[M, act]` the sampled (unclipped) actions.
+      action: `[M, act]` (or `[M]` for discrete actions) the sampled, unclipped actions.
       advantages: `[M, m]` advantage estimates `A_i`.
       objective_weights: `[m]` scalarization weights `w` (e.g. `lambda`).
       pref: `[m]` preference vector.
@@ -106,13 +102,13 @@ def direction(
     chex.assert_rank([advantages, objective_weights, pref], [2, 1, 1])
     coeff = advantages @ (objective_weights * pref)  # [M]
     grad = jax.grad(surrogate, argnums=1)(
-        policy_apply, params.trainable, params.fixed, obs, action, coeff
+        log_prob, params.trainable, params.fixed, obs, action, coeff
     )
     return jax.tree.map(jnp.negative, grad)
 
 
 def objective_gradients(
-    policy_apply: PolicyApply,
+    log_prob: LogProb,
     params: NetParams,
     obs: chex.Array,
     action: chex.Array,
@@ -126,7 +122,7 @@ def objective_gradients(
     chex.assert_rank(advantages, 2)
     return jax.vmap(
         lambda a: jax.grad(surrogate, argnums=1)(
-            policy_apply, params.trainable, params.fixed, obs, action, a
+            log_prob, params.trainable, params.fixed, obs, action, a
         )
     )(advantages.T)
 
@@ -188,7 +184,7 @@ def min_norm_weights(gram: chex.Array, num_steps: int = 100) -> chex.Array:
 
 
 def mgda_direction(
-    policy_apply: PolicyApply,
+    log_prob: LogProb,
     params: NetParams,
     obs: chex.Array,
     action: chex.Array,
@@ -208,7 +204,7 @@ def mgda_direction(
     Returns:
       `(d, lambda)`: the direction (like `params.trainable`) and the `[m]` MGDA weights.
     """
-    grads = objective_gradients(policy_apply, params, obs, action, advantages)
+    grads = objective_gradients(log_prob, params, obs, action, advantages)
     scaled = jax.tree.map(lambda g: g * pref.reshape((-1,) + (1,) * (g.ndim - 1)), grads)
     flat = jnp.concatenate(
         [g.reshape(g.shape[0], -1) for g in jax.tree.leaves(scaled)], axis=1

@@ -163,22 +163,34 @@ def project_to_ball(params: Any, center: Any, radius: float) -> Any:
 
 
 class Policy(NamedTuple):
-    """A Gaussian policy with a network mean and a state-independent log-std.
+    """A stochastic policy as pure functions around a network.
 
     Attributes:
-      init: `key -> NetParams` with `trainable = {"net": ..., "log_std": [act]}` (or
-        `log_std` under `fixed` when it is not learned).
-      apply: `(NetParams, obs [..., obs]) -> (mean [..., act], log_std [act])`.
+      init: `key -> NetParams`.
+      apply: `(NetParams, obs [..., obs]) -> dist`, the distribution's parameters.
+      sample: `(key, dist) -> action` (Gaussian: unclipped `[..., act]`; categorical:
+        integer `[...]`).
+      log_prob: `(dist, action) -> [...]`.
+      mode: `dist -> action`, the deterministic policy (Gaussian mean; most likely action).
+      entropy: `dist -> [...]`.
+      to_env: `action -> action` as the environment takes it (Gaussian: clipped to
+        `[-1, 1]`; the score always uses the unclipped sample).
     """
 
     init: Callable[[chex.PRNGKey], NetParams]
-    apply: Callable[[NetParams, chex.Array], tuple[chex.Array, chex.Array]]
+    apply: Callable[[NetParams, chex.Array], Any]
+    sample: Callable[[chex.PRNGKey, Any], chex.Array]
+    log_prob: Callable[[Any, chex.Array], chex.Array]
+    mode: Callable[[Any], chex.Array]
+    entropy: Callable[[Any], chex.Array]
+    to_env: Callable[[chex.Array], chex.Array]
 
 
 def gaussian_policy(
     network: Network, action_size: int, log_std_init: float, learn_log_std: bool = True
 ) -> Policy:
-    """Wraps a network with `action_size` outputs into a Gaussian policy.
+    """A diagonal Gaussian with the network's `action_size` outputs as mean and a
+    state-independent log-std; `dist = (mean [..., act], log_std [act])`.
 
     The trainable parameters of the policy, all of which the actor's normalised step
     covers, are the network's trainable parameters and, if `learn_log_std`, the log-std.
@@ -196,7 +208,43 @@ def gaussian_policy(
         log_std = params.trainable["log_std"] if learn_log_std else params.fixed["log_std"]
         return network.apply(net, obs), log_std
 
-    return Policy(init, apply)
+    def entropy(dist):
+        mean, log_std = dist
+        per_dim = log_std + 0.5 * math.log(2 * math.pi * math.e)
+        return jnp.broadcast_to(jnp.sum(per_dim), mean.shape[:-1])
+
+    return Policy(
+        init=init,
+        apply=apply,
+        sample=lambda key, dist: gaussian_sample(key, *dist),
+        log_prob=lambda dist, action: gaussian_log_prob(*dist, action),
+        mode=lambda dist: dist[0],
+        entropy=entropy,
+        to_env=lambda action: jnp.clip(action, -1.0, 1.0),
+    )
+
+
+def categorical_policy(network: Network) -> Policy:
+    """A softmax policy over the network's outputs (one logit per action); `dist = logits`.
+
+    All of the network's trainable parameters are the policy's.
+    """
+
+    def entropy(logits):
+        logp = jax.nn.log_softmax(logits)
+        return -jnp.sum(jnp.exp(logp) * logp, axis=-1)
+
+    return Policy(
+        init=network.init,
+        apply=network.apply,
+        sample=lambda key, logits: jax.random.categorical(key, logits),
+        log_prob=lambda logits, action: jnp.take_along_axis(
+            jax.nn.log_softmax(logits), action[..., None].astype(jnp.int32), axis=-1
+        )[..., 0],
+        mode=lambda logits: jnp.argmax(logits, axis=-1),
+        entropy=entropy,
+        to_env=lambda action: action,
+    )
 
 
 def gaussian_log_prob(mean: chex.Array, log_std: chex.Array, action: chex.Array) -> chex.Array:

@@ -81,11 +81,11 @@ class Trainer(NamedTuple):
       run: `(state, pref [m], num_iterations) -> (state, metrics)`; `num_iterations` is
         static (bind it with `functools.partial` before `jit`).
       step: `(state, pref [m]) -> (state, metrics)`, one outer iteration.
-      policy: the Gaussian policy `(init, apply)`.
+      policy: the policy (`networks.Policy`).
       value_network: the critics' network `(init, apply)`.
       preprocess: `(obs_stats, obs [..., obs]) -> network input [..., obs]`.
-      mean_action: `(state, obs [..., obs]) -> [..., act]` the deterministic (mean)
-        policy's action, clipped to `[-1, 1]`.
+      mean_action: `(state, obs [..., obs]) -> action` the deterministic policy's action
+        as the environment takes it (the clipped Gaussian mean; the most likely action).
       j_ub: `[m]` the utopia point in use.
     """
 
@@ -117,6 +117,24 @@ def resolve_j_ub(config: TrainConfig, env) -> tuple[float, ...]:
     return tuple(float(v) for v in j_ub)
 
 
+def make_policy(config: TrainConfig, env) -> networks.Policy:
+    """The actor for `env`'s action space: a Gaussian for continuous actions in
+    `[-1, 1]^act`, a softmax over `env.num_actions` for discrete ones."""
+    num_actions = getattr(env, "num_actions", None)
+    out = int(num_actions) if num_actions else int(env.action_size)
+    net = networks.make_network(
+        config.network,
+        int(env.observation_size),
+        out,
+        config.width,
+        config.depth,
+        policy_head=True,
+    )
+    if num_actions:
+        return networks.categorical_policy(net)
+    return networks.gaussian_policy(net, out, config.log_std_init, config.learn_log_std)
+
+
 def make_trainer(config: TrainConfig, env) -> Trainer:
     """Builds the pure `init` and `run` of Algorithm 1 + 2 for `env` (see module doc).
 
@@ -127,7 +145,6 @@ def make_trainer(config: TrainConfig, env) -> Trainer:
     """
     m = int(env.num_objectives)
     obs_size = int(env.observation_size)
-    act_size = int(env.action_size)
     j_ub = jnp.asarray(resolve_j_ub(config, env), jnp.float32)
     use_mgda = config.scalarization == "mgda"
     # MGDA has no scalarization of its own; its progress is reported with `smooth_wc`
@@ -138,16 +155,12 @@ def make_trainer(config: TrainConfig, env) -> Trainer:
     v_reset = jax.vmap(wrapped.reset)
     v_step = jax.vmap(wrapped.step)
 
-    policy = networks.gaussian_policy(
-        networks.make_network(
-            config.network, obs_size, act_size, config.width, config.depth, policy_head=True
-        ),
-        act_size,
-        config.log_std_init,
-        config.learn_log_std,
-    )
+    policy = make_policy(config, env)
     value_net = networks.make_network(config.network, obs_size, 1, config.width, config.depth)
     optimizer = actor.make_optimizer(config.actor_optimizer, config.actor_lr)
+
+    def log_prob(params, obs, action):
+        return policy.log_prob(policy.apply(params, obs), action)
 
     def preprocess(obs_stats, obs):
         x = obs
@@ -181,9 +194,9 @@ def make_trainer(config: TrainConfig, env) -> Trainer:
 
     def env_step(actor_params, obs_stats, env_state, episodes, key):
         """All `N` envs take one policy step. Returns the new env state, stats, transition."""
-        mean, log_std = policy.apply(actor_params, preprocess(obs_stats, env_state.obs))
-        action = networks.gaussian_sample(key, mean, log_std)
-        next_state = v_step(env_state, jnp.clip(action, -1.0, 1.0))
+        dist = policy.apply(actor_params, preprocess(obs_stats, env_state.obs))
+        action = policy.sample(key, dist)
+        next_state = v_step(env_state, policy.to_env(action))
         done = next_state.done
         transition = Transition(
             obs=env_state.obs,
@@ -252,12 +265,10 @@ def make_trainer(config: TrainConfig, env) -> Trainer:
         start_obs = prep(env_state.info["first_obs"])
         j_hat = actor.objective_estimates(critic.values(value_net.apply, avg, start_obs))
         if use_mgda:
-            d, weights = actor.mgda_direction(
-                policy.apply, state.actor, obs_in, flat.action, adv, pref
-            )
+            d, weights = actor.mgda_direction(log_prob, state.actor, obs_in, flat.action, adv, pref)
         else:
             weights = scal.weights(j_hat, pref, j_ub, config.mu)
-            d = actor.direction(policy.apply, state.actor, obs_in, flat.action, adv, weights, pref)
+            d = actor.direction(log_prob, state.actor, obs_in, flat.action, adv, weights, pref)
         updates, opt_state = optimizer.update(d, state.actor_opt_state, state.actor.trainable)
         new_actor = state.actor.replace(
             trainable=optax.apply_updates(state.actor.trainable, updates)
@@ -276,7 +287,7 @@ def make_trainer(config: TrainConfig, env) -> Trainer:
         episode_return = jnp.sum(episodes.last_return * has_finished, axis=0) / jnp.maximum(
             jnp.sum(has_finished), 1.0
         )
-        _, log_std = policy.apply(state.actor, obs_in[:1])
+        entropy = jnp.mean(policy.entropy(policy.apply(state.actor, obs_in)))
         metrics = {
             "train/j_hat": j_hat,
             "train/weights": weights,
@@ -288,7 +299,7 @@ def make_trainer(config: TrainConfig, env) -> Trainer:
             "train/td_error": jnp.mean(td_abs, axis=0),
             "train/advantage": jnp.mean(adv, axis=0),
             "train/direction_norm": optax.tree.norm(d),
-            "train/policy_std": jnp.mean(jnp.exp(log_std)),
+            "train/policy_entropy": entropy,
         }
         new_state = state.replace(
             actor=new_actor,
@@ -307,8 +318,8 @@ def make_trainer(config: TrainConfig, env) -> Trainer:
         return jax.lax.scan(lambda s, _: iteration(s, pref), state, None, length=num_iterations)
 
     def mean_action(state: TrainState, obs: chex.Array) -> chex.Array:
-        mean, _ = policy.apply(state.actor, preprocess(state.obs_stats, obs))
-        return jnp.clip(mean, -1.0, 1.0)
+        dist = policy.apply(state.actor, preprocess(state.obs_stats, obs))
+        return policy.to_env(policy.mode(dist))
 
     return Trainer(init, run, iteration, policy, value_net, preprocess, mean_action, j_ub)
 

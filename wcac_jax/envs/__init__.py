@@ -19,6 +19,7 @@ from wcac_jax.envs.wrappers import EpisodeWrapper
 _REGISTRY: dict[str, str] = {
     "concave_bandit": "wcac_jax.envs.concave_bandit:ConcaveBandit",
     "walker2d": "wcac_jax.envs.walker2d:Walker2d",
+    "tabular_momdp": "wcac_jax.envs.tabular:TabularMOMDP",
 }
 
 
