@@ -2,7 +2,8 @@
 whose exact Pareto front is known.
 
 For each direction (`smooth_wc`, `wc`, `linear`, `mgda`), trains `--n-prefs` evenly spaced
-preferences in one `jit(vmap(train))` and reports: the number of distinct front points
+preferences (the three scalarizations together in ONE `jit(vmap(train))` over preferences
+x directions, MGDA in its own) and reports: the number of distinct front points
 reached (more than `--distinct` apart), each point's distance to the exact front, the
 hypervolume relative to the exact front's, and how evenly the points cover the front (the
 largest gap between neighbouring points, measured by the angle theta that produces them,
@@ -29,7 +30,7 @@ import numpy as np
 from wcac_jax import envs, pareto
 from wcac_jax.config import TrainConfig
 from wcac_jax.envs import concave_bandit as cb
-from wcac_jax.train import make_trainer
+from wcac_jax.train import TRACED_DIRECTIONS, make_trainer
 
 DIRECTIONS = ("smooth_wc", "wc", "linear", "mgda")
 # The bandit's settings (as in the tests): a fixed small policy noise, because with a
@@ -66,20 +67,49 @@ def distance_to_curve(points: np.ndarray, curve: np.ndarray) -> np.ndarray:
     return np.min(np.linalg.norm(points[:, None] - curve[None], axis=-1), axis=1)
 
 
-def bandit_direction(direction: str, prefs: np.ndarray, iterations: int, seed: int) -> dict:
+def bandit_directions(directions, prefs: np.ndarray, iterations: int, seed: int) -> dict:
+    """Trains every (direction, preference) pair; the scalarizations share ONE compiled
+    program (a traced direction index, vmapped with the preferences); MGDA, which needs
+    per-objective gradients, is its own program. Preference `i` uses the same key under
+    every direction."""
     env = envs.make("concave_bandit")
-    config = BANDIT.replace(scalarization=direction, num_iterations=iterations)
-    trainer = make_trainer(config, env)
-
-    def train(key, pref):
-        return trainer.run(trainer.init(key, pref), pref, iterations)
-
     keys = jax.random.split(jax.random.key(seed), prefs.shape[0])
-    states, metrics = jax.jit(jax.vmap(train))(keys, jnp.asarray(prefs, jnp.float32))
-    action = jax.vmap(lambda s: trainer.mean_action(s, jnp.ones((1,))))(states)[:, 0]
+    prefs_j = jnp.asarray(prefs, jnp.float32)
+    out = {}
+    traced = [d for d in directions if d in TRACED_DIRECTIONS]
+    if traced:
+        config = BANDIT.replace(num_iterations=iterations)
+        trainer = make_trainer(config, env)
+        index = jnp.asarray([TRACED_DIRECTIONS.index(d) for d in traced])
+        n_p, n_d = prefs.shape[0], len(traced)
+
+        def train(key, pref, direction):
+            return trainer.run(trainer.init(key, pref), pref, iterations, direction)
+
+        states, metrics = jax.jit(jax.vmap(train))(
+            jnp.tile(keys, n_d), jnp.tile(prefs_j, (n_d, 1)), jnp.repeat(index, n_p)
+        )
+        action = jax.vmap(lambda s: trainer.mean_action(s, jnp.ones((1,))))(states)[:, 0]
+        for k, direction in enumerate(traced):
+            sl = slice(k * n_p, (k + 1) * n_p)
+            out[direction] = _result(action[sl], metrics["train/weights"][sl])
+    if "mgda" in directions:
+        config = BANDIT.replace(scalarization="mgda", num_iterations=iterations)
+        trainer = make_trainer(config, env)
+
+        def train_mgda(key, pref):
+            return trainer.run(trainer.init(key, pref), pref, iterations)
+
+        states, metrics = jax.jit(jax.vmap(train_mgda))(keys, prefs_j)
+        action = jax.vmap(lambda s: trainer.mean_action(s, jnp.ones((1,))))(states)[:, 0]
+        out["mgda"] = _result(action, metrics["train/weights"])
+    return out
+
+
+def _result(action, weights) -> dict:
     theta = np.asarray(cb.action_to_theta(action), np.float64)
     points = np.asarray(cb.reward(jnp.asarray(theta)), np.float64)
-    return {"theta": theta, "points": points, "weights": np.asarray(metrics["train/weights"])}
+    return {"theta": theta, "points": points, "weights": np.asarray(weights)}
 
 
 def summarise(theta, points, exact, exact_hv, ref, min_dist) -> dict:
@@ -124,8 +154,9 @@ def main(argv=None) -> int:
         "config": BANDIT.replace(num_iterations=args.iterations).to_dict(),
         "directions": {},
     }
+    runs = bandit_directions(args.directions, prefs, args.iterations, args.seed)
     for direction in args.directions:
-        run = bandit_direction(direction, prefs, args.iterations, args.seed)
+        run = runs[direction]
         summary = summarise(run["theta"], run["points"], exact, exact_hv, ref, args.distinct)
         result["directions"][direction] = summary
         print(

@@ -44,6 +44,9 @@ from wcac_jax.config import TrainConfig
 from wcac_jax.envs.wrappers import EpisodeWrapper
 from wcac_jax.types import EpisodeStats, Transition
 
+# scalarizations selectable by a traced index (`direction` argument of `train`)
+TRACED_DIRECTIONS = ("smooth_wc", "wc", "linear")
+
 
 @struct.dataclass
 class TrainState:
@@ -78,9 +81,10 @@ class Trainer(NamedTuple):
 
     Attributes:
       init: `(key, pref [m]) -> TrainState`.
-      run: `(state, pref [m], num_iterations) -> (state, metrics)`; `num_iterations` is
-        static (bind it with `functools.partial` before `jit`).
-      step: `(state, pref [m]) -> (state, metrics)`, one outer iteration.
+      run: `(state, pref [m], num_iterations, direction=None) -> (state, metrics)`;
+        `num_iterations` is static (bind it with `functools.partial` before `jit`);
+        `direction` is an optional traced index into `TRACED_DIRECTIONS`.
+      step: `(state, pref [m], direction=None) -> (state, metrics)`, one iteration.
       policy: the policy (`networks.Policy`).
       value_network: the critics' network `(init, apply)`.
       preprocess: `(obs_stats, obs [..., obs]) -> network input [..., obs]`.
@@ -215,7 +219,21 @@ def make_trainer(config: TrainConfig, env) -> Trainer:
         )
         return next_state, episodes, transition
 
-    def iteration(state: TrainState, pref: chex.Array):
+    traced_scals = [scalarize.get(name) for name in TRACED_DIRECTIONS]
+
+    def scalarization(direction, j_hat, pref):
+        """(weights [m], scalarized value) of the static config, or of a traced index."""
+        if direction is None:
+            return scal.weights(j_hat, pref, j_ub, config.mu), scal.value(
+                j_hat, pref, j_ub, config.mu
+            )
+        branches = [
+            lambda j, p, s=s: (s.weights(j, p, j_ub, config.mu), s.value(j, p, j_ub, config.mu))
+            for s in traced_scals
+        ]
+        return jax.lax.switch(direction, branches, j_hat, pref)
+
+    def iteration(state: TrainState, pref: chex.Array, direction: chex.Array | None = None):
         key_critic, key_rollout = jax.random.split(
             jax.random.fold_in(jax.random.wrap_key_data(state.key), state.iteration)
         )
@@ -265,9 +283,12 @@ def make_trainer(config: TrainConfig, env) -> Trainer:
         start_obs = prep(env_state.info["first_obs"])
         j_hat = actor.objective_estimates(critic.values(value_net.apply, avg, start_obs))
         if use_mgda:
+            if direction is not None:
+                raise ValueError("a traced direction index needs a scalarization, not mgda")
+            scalarized = scal.value(j_hat, pref, j_ub, config.mu)
             d, weights = actor.mgda_direction(log_prob, state.actor, obs_in, flat.action, adv, pref)
         else:
-            weights = scal.weights(j_hat, pref, j_ub, config.mu)
+            weights, scalarized = scalarization(direction, j_hat, pref)
             d = actor.direction(log_prob, state.actor, obs_in, flat.action, adv, weights, pref)
         updates, opt_state = optimizer.update(d, state.actor_opt_state, state.actor.trainable)
         new_actor = state.actor.replace(
@@ -291,7 +312,7 @@ def make_trainer(config: TrainConfig, env) -> Trainer:
         metrics = {
             "train/j_hat": j_hat,
             "train/weights": weights,
-            "train/scalarized": scal.value(j_hat, pref, j_ub, config.mu),
+            "train/scalarized": scalarized,
             "train/g_mu": scalarize.smooth_wc(j_hat, pref, j_ub, config.mu),
             "train/episode_return": episode_return,
             "train/episodes": newly_finished,
@@ -313,9 +334,11 @@ def make_trainer(config: TrainConfig, env) -> Trainer:
         )
         return new_state, metrics
 
-    def run(state: TrainState, pref: chex.Array, num_iterations: int):
+    def run(state: TrainState, pref: chex.Array, num_iterations: int, direction=None):
         chex.assert_shape(pref, (m,))
-        return jax.lax.scan(lambda s, _: iteration(s, pref), state, None, length=num_iterations)
+        return jax.lax.scan(
+            lambda s, _: iteration(s, pref, direction), state, None, length=num_iterations
+        )
 
     def mean_action(state: TrainState, obs: chex.Array) -> chex.Array:
         dist = policy.apply(state.actor, preprocess(state.obs_stats, obs))
@@ -329,12 +352,15 @@ def make_train(config: TrainConfig, env) -> Callable:
 
     `key` (a PRNG key) and `pref` (`[m]`) are traced, so a sweep is
     `jax.jit(jax.vmap(train))(keys [P], prefs [P, m])`; `metrics` leaves are `[T, ...]`
-    (`[P, T, ...]` under the vmap). See `make_trainer` for the pieces.
+    (`[P, T, ...]` under the vmap). The optional `direction` is a traced integer index
+    into `TRACED_DIRECTIONS` (`0`: smooth_wc, `1`: wc, `2`: linear) that overrides
+    `config.scalarization`, so scalarizations can be compared inside one compiled program
+    (`jax.vmap(train)(keys, prefs, directions)`). See `make_trainer` for the pieces.
     """
     trainer = make_trainer(config, env)
 
-    def train(key: chex.PRNGKey, pref: chex.Array):
-        return trainer.run(trainer.init(key, pref), pref, config.num_iterations)
+    def train(key: chex.PRNGKey, pref: chex.Array, direction: chex.Array | None = None):
+        return trainer.run(trainer.init(key, pref), pref, config.num_iterations, direction)
 
     return train
 
