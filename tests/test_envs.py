@@ -129,3 +129,51 @@ def test_tabular_momdp_optimum_beats_every_deterministic_policy():
         pi = jax.nn.one_hot(jnp.array(actions), 2)
         g = scalarize.smooth_wc(env.exact_objectives(pi), pref, j_ub, mu)
         assert float(g_star) <= float(g) + 1e-4
+
+
+def test_deep_sea_treasure_dynamics_and_exact_answers():
+    from wcac_jax.envs import deep_sea_treasure as dst
+
+    env = envs.make("deep_sea_treasure")
+    state = env.reset(jax.random.key(0))
+    step = jax.jit(env.step)
+    up = step(state, jnp.array(0))  # off the grid: stays at the start
+    assert int(up.pipeline_state["cell"]) == 0 and float(up.done) == 0.0
+    np.testing.assert_allclose(up.reward, [0.0, -1.0])
+    down = step(state, jnp.array(1))  # treasure 1 right below the start
+    np.testing.assert_allclose(down.reward, [1.0, -1.0])
+    assert float(down.done) == 1.0
+    # the shortest paths take 1, 3, 5, 7, 8, 9, 13, 14, 17, 19 steps (MO-Gymnasium's front)
+    undiscounted = dst.path_returns(1.0 - 1e-12)
+    np.testing.assert_allclose(-undiscounted[:, 1], [1, 3, 5, 7, 8, 9, 13, 14, 17, 19], rtol=1e-6)
+    # concave map: the stochastic-policy front is the segment from treasure 1 to 124
+    front = dst.exact_front(0.99)
+    np.testing.assert_allclose(front, dst.path_returns(0.99)[[0, -1]])
+    assert np.all(dst.distance_to_front(dst.path_returns(0.99)[1:-1], front) > 1.0)
+
+
+def test_deep_sea_treasure_exact_objectives_match_monte_carlo():
+    env = envs.make("deep_sea_treasure")
+    gamma = 0.95
+    logits = jax.random.normal(jax.random.key(1), (121, 4)) + jnp.array([0.0, 1.0, 0.0, 1.0])
+    pi = jax.nn.softmax(logits, axis=-1)
+    exact = env.exact_objectives(pi, gamma)
+    wrapped = EpisodeWrapper(env, 400)
+
+    @jax.jit
+    def discounted_return(key):
+        state = wrapped.reset(key)
+
+        def body(carry, k):
+            state, ret, disc, alive = carry
+            action = jax.random.categorical(k, jnp.log(pi[state.pipeline_state["cell"]]))
+            state = wrapped.step(state, action)
+            ret = ret + alive * disc * state.reward
+            return (state, ret, disc * gamma, alive * (1 - state.info["terminal"])), None
+
+        init = (state, jnp.zeros(2), jnp.ones(()), jnp.ones(()))
+        (_, ret, _, _), _ = jax.lax.scan(body, init, jax.random.split(key, 400))
+        return ret
+
+    returns = jax.vmap(discounted_return)(jax.random.split(jax.random.key(2), 4000))
+    np.testing.assert_allclose(jnp.mean(returns, axis=0), exact, rtol=0.03, atol=0.05)

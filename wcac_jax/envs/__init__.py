@@ -20,6 +20,7 @@ _REGISTRY: dict[str, str] = {
     "concave_bandit": "wcac_jax.envs.concave_bandit:ConcaveBandit",
     "walker2d": "wcac_jax.envs.walker2d:Walker2d",
     "tabular_momdp": "wcac_jax.envs.tabular:TabularMOMDP",
+    "deep_sea_treasure": "wcac_jax.envs.deep_sea_treasure:DeepSeaTreasure",
 }
 
 
