@@ -12,7 +12,9 @@ counting the two ends 0 and pi/2). Writes `exploration.json` and `exploration.pn
     python experiments/pareto_exploration.py --out experiments/results/exploration
     python experiments/pareto_exploration.py --quick --out /tmp/exploration
 
-Problems so far: `concave_bandit` (non-convex front).
+Problems: `concave_bandit` (non-convex front of deterministic policies, exact optima
+known) and `deep_sea_treasure` (concave map; the exact front of stochastic policies is
+the segment from treasure 1 to treasure 124, see `envs/deep_sea_treasure.py`).
 """
 
 from __future__ import annotations
@@ -30,6 +32,7 @@ import numpy as np
 from wcac_jax import envs, pareto
 from wcac_jax.config import TrainConfig
 from wcac_jax.envs import concave_bandit as cb
+from wcac_jax.envs import deep_sea_treasure as dst_env
 from wcac_jax.train import TRACED_DIRECTIONS, make_trainer
 
 DIRECTIONS = ("smooth_wc", "wc", "linear", "mgda")
@@ -51,6 +54,27 @@ BANDIT = TrainConfig(
     learn_log_std=False,
     normalize_obs=False,
 )
+
+
+# Deep Sea Treasure: a softmax policy over one-hot cells; Adam on d (the normalised step
+# from a uniform start rarely finds the far treasures), a smaller critic step for values
+# of magnitude ~100 at gamma = 0.99 (0.1 diverged for one preference).
+DST = TrainConfig(
+    num_envs=16,
+    critic_steps=10,
+    rollout_steps=10,
+    num_iterations=1500,
+    gamma=0.99,
+    mu=0.05,
+    network="mlp",
+    width=64,
+    depth=1,
+    actor_lr=3e-3,
+    critic_lr=0.02,
+    actor_optimizer="adam",
+    normalize_obs=False,
+)
+DST_HV_REF = (0.0, -20.0)
 
 
 def count_distinct(points: np.ndarray, min_dist: float) -> int:
@@ -106,6 +130,78 @@ def bandit_directions(directions, prefs: np.ndarray, iterations: int, seed: int)
     return out
 
 
+def dst_directions(directions, prefs: np.ndarray, iterations: int, seed: int) -> dict:
+    """As `bandit_directions`, on Deep Sea Treasure; points are the exact expected
+    discounted returns of the learned stochastic policies."""
+    env = envs.make("deep_sea_treasure")
+    keys = jax.random.split(jax.random.key(seed), prefs.shape[0])
+    prefs_j = jnp.asarray(prefs, jnp.float32)
+    eye = jnp.eye(env.observation_size)
+    out = {}
+
+    def exact_points(trainer, states):
+        def one(state):
+            pi = jax.nn.softmax(trainer.policy.apply(state.actor, eye), axis=-1)
+            return env.exact_objectives(pi, DST.gamma)
+
+        return np.asarray(jax.jit(jax.vmap(one))(states), np.float64)
+
+    traced = [d for d in directions if d in TRACED_DIRECTIONS]
+    if traced:
+        trainer = make_trainer(DST.replace(num_iterations=iterations), env)
+        index = jnp.asarray([TRACED_DIRECTIONS.index(d) for d in traced])
+        n_p, n_d = prefs.shape[0], len(traced)
+
+        def train(key, pref, direction):
+            return trainer.run(trainer.init(key, pref), pref, iterations, direction)
+
+        states, _ = jax.jit(jax.vmap(train))(
+            jnp.tile(keys, n_d), jnp.tile(prefs_j, (n_d, 1)), jnp.repeat(index, n_p)
+        )
+        points = exact_points(trainer, states)
+        for k, direction in enumerate(traced):
+            out[direction] = points[k * n_p : (k + 1) * n_p]
+    if "mgda" in directions:
+        trainer = make_trainer(DST.replace(scalarization="mgda", num_iterations=iterations), env)
+
+        def train_mgda(key, pref):
+            return trainer.run(trainer.init(key, pref), pref, iterations)
+
+        states, _ = jax.jit(jax.vmap(train_mgda))(keys, prefs_j)
+        out["mgda"] = exact_points(trainer, states)
+    return out
+
+
+def exact_front_hypervolume(front: np.ndarray, ref) -> float:
+    """HV of the region the piecewise-linear front dominates (its edges densely sampled;
+    the vertices alone would give a staircase that misses the triangles under the edges)."""
+    t = np.linspace(0.0, 1.0, 20001)[:, None]
+    dense = np.concatenate([a + t * (b - a) for a, b in zip(front[:-1], front[1:], strict=True)])
+    return pareto.hypervolume(dense, ref)
+
+
+def summarise_dst(points: np.ndarray, front: np.ndarray, min_dist: float) -> dict:
+    """Distinct points, distance to the exact front, HV ratio, and the largest gap
+    between neighbouring points along the front (fraction of its length, ends included)."""
+    ref = np.asarray(DST_HV_REF)
+    finite = np.all(np.isfinite(points), axis=1)
+    pts = points[finite]
+    seg = front[-1] - front[0]
+    along = np.clip(((pts - front[0]) @ seg) / float(seg @ seg), 0.0, 1.0)
+    near = dst_env.distance_to_front(pts, front) < 1.0  # on (or close to) the front
+    gaps = np.diff(np.sort(np.concatenate([[0.0, 1.0], along[near]])))
+    return {
+        "distinct_points": count_distinct(pts, min_dist),
+        "points_near_front": int(near.sum()),
+        "max_distance_to_front": float(dst_env.distance_to_front(pts, front).max()),
+        "hypervolume": pareto.hypervolume(pts, ref),
+        "hypervolume_ratio": pareto.hypervolume(pts, ref) / exact_front_hypervolume(front, ref),
+        "largest_gap_along_front": float(gaps.max()),
+        "diverged": int((~finite).sum()),
+        "points": points.tolist(),
+    }
+
+
 def _result(action, weights) -> dict:
     theta = np.asarray(cb.action_to_theta(action), np.float64)
     points = np.asarray(cb.reward(jnp.asarray(theta)), np.float64)
@@ -128,10 +224,17 @@ def summarise(theta, points, exact, exact_hv, ref, min_dist) -> dict:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument(
+        "--problems",
+        nargs="+",
+        default=["concave_bandit", "deep_sea_treasure"],
+        choices=["concave_bandit", "deep_sea_treasure"],
+    )
     parser.add_argument("--n-prefs", type=int, default=11)
     parser.add_argument("--directions", nargs="+", default=list(DIRECTIONS), choices=DIRECTIONS)
-    parser.add_argument("--iterations", type=int, default=BANDIT.num_iterations)
-    parser.add_argument("--distinct", type=float, default=0.02, help="distinctness radius")
+    parser.add_argument(
+        "--iterations", type=int, default=None, help="per problem default: 600 (bandit), 1500 (DST)"
+    )
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--quick", action="store_true", help="a tiny run for tests")
     parser.add_argument("--out", default="exploration")
@@ -140,76 +243,119 @@ def main(argv=None) -> int:
         args.n_prefs, args.iterations = 3, 5
 
     prefs = pareto.simplex_lattice(2, args.n_prefs)
-    exact = cb.exact_front(2001)
-    ref = np.zeros(2)
-    exact_hv = pareto.hypervolume(exact, ref)
-    targets = np.asarray(jax.vmap(cb.wc_optimum, (0, None))(prefs, cb.DEFAULT_J_UB))
-    result = {
-        "problem": "concave_bandit",
-        "prefs": prefs.tolist(),
-        "j_ub": list(cb.DEFAULT_J_UB),
-        "hv_ref": ref.tolist(),
-        "exact_front_hypervolume": exact_hv,
-        "wc_optimum_theta": targets.tolist(),
-        "config": BANDIT.replace(num_iterations=args.iterations).to_dict(),
-        "directions": {},
-    }
-    runs = bandit_directions(args.directions, prefs, args.iterations, args.seed)
-    for direction in args.directions:
-        run = runs[direction]
-        summary = summarise(run["theta"], run["points"], exact, exact_hv, ref, args.distinct)
-        result["directions"][direction] = summary
-        print(
-            f"{direction:>10}: {summary['distinct_points']:>2} distinct points, "
-            f"HV {summary['hypervolume_ratio']:.3f} of the exact front's, largest theta gap "
-            f"{summary['largest_theta_gap']:.3f} rad, max distance to front "
-            f"{summary['max_distance_to_front']:.2e}",
-            flush=True,
-        )
+    result = {"prefs": prefs.tolist(), "problems": {}}
+    if "concave_bandit" in args.problems:
+        iters = args.iterations or BANDIT.num_iterations
+        exact = cb.exact_front(2001)
+        ref = np.zeros(2)
+        exact_hv = pareto.hypervolume(exact, ref)
+        targets = np.asarray(jax.vmap(cb.wc_optimum, (0, None))(prefs, cb.DEFAULT_J_UB))
+        bandit = {
+            "j_ub": list(cb.DEFAULT_J_UB),
+            "hv_ref": ref.tolist(),
+            "exact_front_hypervolume": exact_hv,
+            "wc_optimum_theta": targets.tolist(),
+            "config": BANDIT.replace(num_iterations=iters).to_dict(),
+            "directions": {},
+        }
+        runs = bandit_directions(args.directions, prefs, iters, args.seed)
+        for direction in args.directions:
+            run = runs[direction]
+            summary = summarise(run["theta"], run["points"], exact, exact_hv, ref, 0.02)
+            bandit["directions"][direction] = summary
+            print(
+                f"concave_bandit {direction:>10}: {summary['distinct_points']:>2} distinct "
+                f"points, HV {summary['hypervolume_ratio']:.3f} of the exact front's, largest "
+                f"theta gap {summary['largest_theta_gap']:.3f} rad, max distance to front "
+                f"{summary['max_distance_to_front']:.2e}",
+                flush=True,
+            )
+        result["problems"]["concave_bandit"] = bandit
+    if "deep_sea_treasure" in args.problems:
+        iters = args.iterations or DST.num_iterations
+        front = dst_env.exact_front(DST.gamma)
+        dst = {
+            "j_ub": list(dst_env.DeepSeaTreasure.default_j_ub),
+            "hv_ref": list(DST_HV_REF),
+            "exact_front": front.tolist(),
+            "exact_front_hypervolume": exact_front_hypervolume(front, np.asarray(DST_HV_REF)),
+            "treasure_path_returns": dst_env.path_returns(DST.gamma).tolist(),
+            "config": DST.replace(num_iterations=iters).to_dict(),
+            "directions": {},
+        }
+        runs = dst_directions(args.directions, prefs, iters, args.seed)
+        for direction in args.directions:
+            summary = summarise_dst(runs[direction], front, 1.0)
+            dst["directions"][direction] = summary
+            print(
+                f"deep_sea_treasure {direction:>10}: {summary['distinct_points']:>2} distinct "
+                f"points ({summary['points_near_front']} within 1 of the front), HV "
+                f"{summary['hypervolume_ratio']:.3f} of the exact front's, largest gap along "
+                f"the front {summary['largest_gap_along_front']:.2f}, max distance "
+                f"{summary['max_distance_to_front']:.2f}",
+                flush=True,
+            )
+        result["problems"]["deep_sea_treasure"] = dst
 
     os.makedirs(args.out, exist_ok=True)
     with open(os.path.join(args.out, "exploration.json"), "w") as f:
         json.dump(result, f, indent=2)
-    _figure(result, exact, os.path.join(args.out, "exploration.png"))
+    _figure(result, os.path.join(args.out, "exploration.png"))
     return 0
 
 
-def _figure(result, exact, path):
+def _figure(result, path):
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    names = list(result["directions"])
-    fig, axes = plt.subplots(1, len(names), figsize=(3.6 * len(names), 3.6), squeeze=False)
+    problems = list(result["problems"])
+    names = list(next(iter(result["problems"].values()))["directions"])
+    fig, axes = plt.subplots(
+        len(problems), len(names), figsize=(3.6 * len(names), 3.4 * len(problems)), squeeze=False
+    )
     prefs = np.asarray(result["prefs"])
-    for ax, name in zip(axes[0], names, strict=True):
-        pts = np.asarray(result["directions"][name]["points"])
-        ax.plot(exact[:, 0], exact[:, 1], "k--", lw=1, label="exact front")
-        sc = ax.scatter(
-            pts[:, 0],
-            pts[:, 1],
-            c=prefs[:, 0],
-            cmap="viridis",
-            vmin=0,
-            vmax=1,
-            s=50,
-            zorder=3,
-            edgecolors="k",
-            linewidths=0.5,
-        )
-        s = result["directions"][name]
-        ax.set_title(
-            f"{name}: {s['distinct_points']} points, HV {s['hypervolume_ratio']:.2f}", fontsize=9
-        )
-        ax.set_xlabel("1 - sin(theta)")
-        ax.set_aspect("equal")
-        ax.grid(alpha=0.3)
-    axes[0, 0].set_ylabel("1 - cos(theta)")
-    axes[0, 0].legend(fontsize=7, loc="upper right")
-    fig.colorbar(sc, ax=axes[0, -1], label="preference p[0]")
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    for row, problem in enumerate(problems):
+        data = result["problems"][problem]
+        if problem == "concave_bandit":
+            exact = cb.exact_front(400)
+            labels = ("1 - sin(theta)", "1 - cos(theta)")
+        else:
+            exact = np.asarray(data["exact_front"])
+            labels = ("treasure (discounted)", "time (discounted)")
+        for ax, name in zip(axes[row], names, strict=True):
+            summary = data["directions"][name]
+            pts = np.asarray(summary["points"], dtype=np.float64)
+            ax.plot(exact[:, 0], exact[:, 1], "k--", lw=1, label="exact front")
+            if problem == "deep_sea_treasure":
+                paths = np.asarray(data["treasure_path_returns"])
+                ax.scatter(
+                    paths[:, 0], paths[:, 1], marker="x", c="grey", s=20, label="treasure paths"
+                )
+            sc = ax.scatter(
+                pts[:, 0],
+                pts[:, 1],
+                c=prefs[:, 0],
+                cmap="viridis",
+                vmin=0,
+                vmax=1,
+                s=50,
+                zorder=3,
+                edgecolors="k",
+                linewidths=0.5,
+            )
+            ax.set_title(
+                f"{problem}: {name}\n{summary['distinct_points']} distinct points, "
+                f"HV {summary['hypervolume_ratio']:.2f}",
+                fontsize=8,
+            )
+            ax.set_xlabel(labels[0], fontsize=8)
+            ax.grid(alpha=0.3)
+        axes[row, 0].set_ylabel(labels[1], fontsize=8)
+        axes[row, 0].legend(fontsize=6, loc="best")
+    fig.colorbar(sc, ax=axes[:, -1].tolist(), label="preference p[0]")
+    fig.savefig(path, dpi=110)
     plt.close(fig)
 
 

@@ -69,9 +69,13 @@ def test_bench_env_quick_writes_every_field(tmp_path):
 def test_pareto_exploration_quick_writes_its_schema(tmp_path):
     _run("pareto_exploration.py", "--quick", "--out", str(tmp_path))
     result = json.loads((tmp_path / "exploration.json").read_text())
-    assert result["problem"] == "concave_bandit" and len(result["prefs"]) == 3
-    assert set(result["directions"]) == {"smooth_wc", "wc", "linear", "mgda"}
-    for summary in result["directions"].values():
+    assert len(result["prefs"]) == 3
+    assert set(result["problems"]) == {"concave_bandit", "deep_sea_treasure"}
+    bandit, dst = result["problems"]["concave_bandit"], result["problems"]["deep_sea_treasure"]
+    assert (
+        set(bandit["directions"]) == set(dst["directions"]) == {"smooth_wc", "wc", "linear", "mgda"}
+    )
+    for summary in bandit["directions"].values():
         for key in (
             "distinct_points",
             "max_distance_to_front",
@@ -82,6 +86,17 @@ def test_pareto_exploration_quick_writes_its_schema(tmp_path):
         ):
             assert key in summary, key
         assert len(summary["theta"]) == 3
+    for summary in dst["directions"].values():
+        for key in (
+            "distinct_points",
+            "points_near_front",
+            "max_distance_to_front",
+            "hypervolume_ratio",
+            "largest_gap_along_front",
+            "points",
+        ):
+            assert key in summary, key
+        assert len(summary["points"]) == 3
     assert (tmp_path / "exploration.png").stat().st_size > 1000
 
 
