@@ -5,17 +5,41 @@ import os
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(ROOT, "experiments"))
+
+import walker2d_ablation  # noqa: E402
+import walker2d_common  # noqa: E402
+
+# The Walker2d scripts run one sweep per direction or network size, each compiling its
+# own init, training and evaluation programs; a shared persistent compilation cache lets
+# the second sweep reuse the programs that are the same (init, evaluation).
+TINY_WALKER = [
+    *("--steps-per-pref", "160", "--envs-per-pref", "4", "--eval-episodes", "1"),
+    *("--chunks", "2"),
+]
 
 
-def _run(script, *args):
+@pytest.fixture(scope="module")
+def jax_cache(tmp_path_factory):
+    path = str(tmp_path_factory.mktemp("jax-cache"))
+    return {
+        "JAX_COMPILATION_CACHE_DIR": path,
+        "JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS": "0",
+        "JAX_PERSISTENT_CACHE_MIN_ENTRY_SIZE_BYTES": "-1",
+    }
+
+
+def _run(script, *args, env=None):
     proc = subprocess.run(
         [sys.executable, os.path.join(ROOT, "experiments", script), *args],
         capture_output=True,
         text=True,
         timeout=900,
+        env=None if env is None else {**os.environ, **env},
     )
     assert proc.returncode == 0, proc.stderr[-3000:]
     return proc
@@ -119,3 +143,93 @@ def test_convergence_rate_quick_writes_its_schema(tmp_path):
                 assert key in p, key
             assert p["initial_gap"] > 0  # the initial policy is not optimal
     assert (tmp_path / "convergence.png").stat().st_size > 1000
+
+
+def test_walker2d_policy_summary_by_hand():
+    # 500 steps, forward return 600 = 100 (speed 0.2 m/s x 500) + 500 healthy;
+    # control return 400 = -100 (0.2 per step x 500) + 500 healthy
+    row = {"pref": [0.9, 0.1], "return": [600.0, 400.0], "episode_length": 500.0}
+    s = walker2d_common.policy_summary(row)
+    assert s["mean_speed_m_per_s"] == pytest.approx(0.2)
+    assert s["mean_control_per_step"] == pytest.approx(0.2)
+    assert s["forward_return"] == 600.0 and s["pref"] == [0.9, 0.1]
+
+
+def test_rank_correlation_by_hand():
+    assert walker2d_common.rank_correlation([1, 2, 3], [30, 20, 10]) == pytest.approx(-1.0)
+    assert walker2d_common.rank_correlation([1, 2, 3, 4], [1, 3, 2, 4]) == pytest.approx(0.8)
+    # ties take their average rank: ranks (0, 1.5, 1.5) vs (0, 1, 2)
+    assert walker2d_common.rank_correlation([1, 2, 2], [1, 2, 3]) == pytest.approx(
+        np.corrcoef([0, 1.5, 1.5], [0, 1, 2])[0, 1]
+    )
+    assert np.isnan(walker2d_common.rank_correlation([1, 1], [1, 2]))
+
+
+def test_named_configs_keep_the_paper_setting_apart():
+    paper = walker2d_common.CONFIGS["paper"]
+    assert (paper.network, paper.actor_optimizer, paper.width, paper.depth) == (
+        "paper",
+        "normalized",
+        256,
+        2,
+    )
+    assert (paper.actor_lr, paper.critic_lr, paper.gamma, paper.mu) == (3e-4, 1e-3, 0.99, 0.05)
+    assert walker2d_common.steps_per_pref(0.2, None) == 200_000
+    assert walker2d_common.steps_per_pref(1.0, 123) == 123
+    with pytest.raises(SystemExit, match="mlp"):
+        walker2d_common.train_config("nope")
+
+
+def test_ablation_grid_is_the_papers():
+    sizes = walker2d_ablation.grid([1, 2, 4], [64, 128, 256], 256, 2)
+    assert sizes == [(1, 256), (2, 256), (4, 256), (2, 64), (2, 128)]
+    assert walker2d_common.smooth([1, 2, 3, 4], 2).tolist() == [1.5, 2.5, 3.5]
+
+
+@pytest.mark.slow
+def test_walker2d_front_tiny(tmp_path, jax_cache):
+    _run(
+        "walker2d_front.py",
+        *TINY_WALKER,
+        *("--width", "16", "--depth", "1", "--out", str(tmp_path)),
+        env=jax_cache,
+    )
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["config_name"] == "paper" and summary["steps_per_pref"] == 160
+    assert set(summary["directions"]) == {"smooth_wc", "linear"}
+    for direction, res in summary["directions"].items():
+        front = json.loads((tmp_path / direction / "front.json").read_text())
+        assert front["config"]["train"]["scalarization"] == direction
+        assert res["hypervolume"] == front["hypervolume"]
+        assert len(res["policies"]) == len(front["prefs"]) == 9
+        for pol, row in zip(res["policies"], front["prefs"], strict=True):
+            assert pol["pref"] == row["pref"] and pol["forward_return"] == row["return"][0]
+            assert np.isfinite(pol["mean_speed_m_per_s"])
+        assert -1.0 <= res["pref0_forward_rank_correlation"] <= 1.0 or np.isnan(
+            res["pref0_forward_rank_correlation"]
+        )
+    for name in ("front.png", "curves.png"):
+        assert (tmp_path / name).stat().st_size > 1000
+
+
+@pytest.mark.slow
+def test_walker2d_ablation_tiny(tmp_path, jax_cache):
+    _run(
+        "walker2d_ablation.py",
+        *TINY_WALKER,
+        # nine seeds at the front test's sizes: the same programs, so the cache serves them
+        *("--seeds", "9", "--depths", "1", "--widths", "16", "--fixed-width", "16"),
+        *("--fixed-depth", "1", "--out", str(tmp_path)),
+        env=jax_cache,
+    )
+    result = json.loads((tmp_path / "ablation.json").read_text())
+    assert result["seeds"] == 9 and result["pref"] == [0.9, 0.1]
+    (size,) = result["sizes"]
+    assert (size["depth"], size["width"]) == (1, 16)
+    front = json.loads((tmp_path / "D1_w16" / "front.json").read_text())
+    assert size["eval_forward_return"] == [row["return"][0] for row in front["prefs"]]
+    assert size["eval_forward_mean"] == pytest.approx(np.mean(size["eval_forward_return"]))
+    assert len(size["train_forward_final"]) == 9
+    assert len(set(size["eval_forward_return"])) > 1  # the seeds differ
+    assert len(size["curve_steps"]) == len(size["curve_forward_mean"]) > 0
+    assert (tmp_path / "ablation.png").stat().st_size > 1000

@@ -1,0 +1,175 @@
+"""The paper's depth/width ablation on Walker2d (its Fig. 4): preference `[0.9, 0.1]`,
+depth `D in {1, 2, 4}` at width 256 and width `w in {64, 128, 256}` at depth 2.
+
+Each network size is its own compiled program (shapes differ); inside it the seeds are
+vmapped, as a sweep over `--seeds` copies of the preference (copy `i` trains with key
+`fold_in(key(seed), i)`). Each size writes its sweep outputs to `OUT/D<d>_w<w>/`. Then
+this script writes `OUT/ablation.json` (per size: the evaluated forward and control
+returns of the mean policy per seed, their mean and standard deviation, the final
+training forward return, and the smoothed forward-return curve averaged over seeds),
+`OUT/ablation.png` (forward-return learning curves, smoothed over 500 env steps as the
+paper, mean over seeds with the min-max band; one panel for depth, one for width) and
+prints the table.
+
+    python experiments/walker2d_ablation.py                    # paper scale: 1M steps
+    python experiments/walker2d_ablation.py --scale 0.1 --out experiments/results/walker2d_ablation
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import numpy as np  # noqa: E402
+import walker2d_common as common  # noqa: E402
+
+from wcac_jax import plot  # noqa: E402
+from wcac_jax.sweep import SweepConfig, SweepError, run_sweep  # noqa: E402
+
+PREF = (0.9, 0.1)
+SMOOTH_STEPS = 500  # the paper smooths its curves over 500 environment steps
+
+
+def grid(depths, widths, fixed_width, fixed_depth) -> list[tuple[int, int]]:
+    """`(depth, width)` of every program: the depth sweep at `fixed_width`, then the
+    width sweep at `fixed_depth`, without repeating the size they share."""
+    sizes = [(d, fixed_width) for d in depths] + [(fixed_depth, w) for w in widths]
+    return list(dict.fromkeys(sizes))
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--config", default="paper", help=f"one of {', '.join(common.CONFIGS)}")
+    p.add_argument("--scale", type=float, default=1.0, help="fraction of 1M env steps")
+    p.add_argument("--steps-per-pref", type=int, default=None, help="overrides --scale")
+    p.add_argument("--seeds", type=int, default=3, help="seeds per size (vmapped)")
+    p.add_argument("--depths", type=int, nargs="+", default=[1, 2, 4])
+    p.add_argument("--widths", type=int, nargs="+", default=[64, 128, 256])
+    p.add_argument("--fixed-width", type=int, default=256, help="width of the depth sweep")
+    p.add_argument("--fixed-depth", type=int, default=2, help="depth of the width sweep")
+    p.add_argument("--physics", default="brax", help="brax or gymnasium-v5")
+    p.add_argument("--envs-per-pref", type=int, default=None, help="N (default: the config's)")
+    p.add_argument("--eval-episodes", type=int, default=8)
+    p.add_argument("--chunks", type=int, default=10)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--out", default="runs/walker2d_ablation")
+    args = p.parse_args(argv)
+
+    if args.seeds < 1:
+        print(f"error: --seeds must be >= 1, got {args.seeds}", file=sys.stderr)
+        return 2
+    base = common.train_config(
+        args.config, **({} if args.envs_per_pref is None else {"num_envs": args.envs_per_pref})
+    )
+    steps = common.steps_per_pref(args.scale, args.steps_per_pref)
+    if os.path.exists(args.out) and os.listdir(args.out):
+        print(f"error: --out {args.out!r} is not empty", file=sys.stderr)
+        return 2
+    os.makedirs(args.out, exist_ok=True)
+    window = max(1, round(SMOOTH_STEPS / base.env_steps_per_iteration))
+
+    result = {
+        "config_name": args.config,
+        "pref": list(PREF),
+        "seeds": args.seeds,
+        "scale": steps / common.PAPER_STEPS_PER_PREF,
+        "steps_per_pref": steps,
+        "physics": args.physics,
+        "smoothing_iterations": window,
+        "machine": common.machine(),
+        "sizes": [],
+    }
+    for depth, width in grid(args.depths, args.widths, args.fixed_width, args.fixed_depth):
+        name = f"D{depth}_w{width}"
+        config = SweepConfig(
+            prefs=(PREF,) * args.seeds,
+            env="walker2d",
+            env_options={"physics": args.physics},
+            train=base.replace(depth=depth, width=width),
+            steps_per_pref=steps,
+            seed=args.seed,
+            eval_episodes=args.eval_episodes,
+        )
+        print(f"[walker2d_ablation] {name}: {args.seeds} seeds x {steps:,} env steps", flush=True)
+        t0 = time.perf_counter()
+        try:
+            front = run_sweep(config, os.path.join(args.out, name), chunks=args.chunks)
+        except SweepError as err:
+            print(f"error: {err}", file=sys.stderr)
+            return 2
+        wall = time.perf_counter() - t0
+        curves = np.load(os.path.join(args.out, name, "curves.npz"))
+        fwd = curves["train/episode_return"][..., 0]  # [seeds, T]
+        smoothed = np.stack([common.smooth(y, window) for y in fwd])
+        tail = max(1, fwd.shape[1] // 20)  # the last 5% of iterations
+        policies = [common.policy_summary(row) for row in front["prefs"]]
+        eval_fwd = np.array([pol["forward_return"] for pol in policies])
+        eval_ctl = np.array([pol["control_return"] for pol in policies])
+        result["sizes"].append(
+            {
+                "name": name,
+                "depth": depth,
+                "width": width,
+                "eval_forward_return": eval_fwd.tolist(),
+                "eval_forward_mean": float(eval_fwd.mean()),
+                "eval_forward_std": float(eval_fwd.std(ddof=1)) if len(eval_fwd) > 1 else 0.0,
+                "eval_control_return": eval_ctl.tolist(),
+                "eval_episode_length": [pol["episode_length"] for pol in policies],
+                "eval_speed_m_per_s": [pol["mean_speed_m_per_s"] for pol in policies],
+                "train_forward_final": fwd[:, -tail:].mean(axis=1).tolist(),
+                "curve_steps": curves["train/env_steps"][0, -smoothed.shape[1] :].tolist(),
+                "curve_forward_mean": smoothed.mean(axis=0).tolist(),
+                "curve_forward_min": smoothed.min(axis=0).tolist(),
+                "curve_forward_max": smoothed.max(axis=0).tolist(),
+                "env_steps_per_s": front["env_steps_per_s"],
+                "compile_s": front["compile_s"],
+                "wall_s": wall,
+            }
+        )
+
+    fig, axes = plot.plt.subplots(1, 2, figsize=(11, 4), sharey=True)
+    panels = (
+        ("depth", [s for s in result["sizes"] if s["width"] == args.fixed_width], "depth"),
+        ("width", [s for s in result["sizes"] if s["depth"] == args.fixed_depth], "width"),
+    )
+    for ax, (title, sizes, key) in zip(axes, panels, strict=True):
+        for i, s in enumerate(sizes):
+            x = np.asarray(s["curve_steps"])
+            ax.plot(x, s["curve_forward_mean"], color=f"C{i}", label=f"{key} {s[key]}")
+            ax.fill_between(
+                x, s["curve_forward_min"], s["curve_forward_max"], color=f"C{i}", alpha=0.2
+            )
+        fixed = f"width {args.fixed_width}" if key == "depth" else f"depth {args.fixed_depth}"
+        ax.set_title(f"{title} ({fixed}), p = {list(PREF)}, {args.seeds} seeds")
+        ax.set_xlabel("environment steps")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    axes[0].set_ylabel("training forward return (smoothed over 500 steps)")
+    fig.tight_layout()
+    fig.savefig(os.path.join(args.out, "ablation.png"), dpi=110)
+    plot.plt.close(fig)
+    with open(os.path.join(args.out, "ablation.json"), "w") as f:
+        json.dump(result, f, indent=2)
+
+    print("| depth | width | eval forward return (mean ± sd) | train forward (last 5%) |")
+    print("|---|---|---|---|")
+    for s in result["sizes"]:
+        tf = np.asarray(s["train_forward_final"])
+        print(
+            f"| {s['depth']} | {s['width']} | {s['eval_forward_mean']:.1f} ± "
+            f"{s['eval_forward_std']:.1f} | {tf.mean():.1f} ± "
+            f"{tf.std(ddof=1) if len(tf) > 1 else 0.0:.1f} |"
+        )
+    print(f"wrote {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,107 @@
+"""What the Walker2d experiments share: the named training configurations and the
+per-policy summaries (forward speed, control effort) read from a sweep's `front.json`.
+
+`paper` is the paper's setting (SPEC §5, paper Appendix B.2) and nothing else. Every
+departure from it is a separate, named configuration here, so that a result is never
+silently tuned: the scripts record the name and the full config with the results.
+"""
+
+from __future__ import annotations
+
+import jax
+import numpy as np
+
+from wcac_jax.config import TrainConfig
+
+PAPER_STEPS_PER_PREF = 1_000_000
+
+CONFIGS = {
+    # The paper: its ReLU network (fixed A and c, trainable W, 1/sqrt(w) scaling) for the
+    # actor and both critics, the normalised actor step with constant alpha = 3e-4,
+    # beta = 1e-3, gamma = 0.99, mu = 0.05, J_ub = (2000, 1000), width 256, depth 2.
+    "paper": TrainConfig(),
+    # Departure: a conventional flax MLP (every layer trained, policy head initialised
+    # small so initial actions are not saturated) for actor and critics, and Adam on
+    # the direction d_t instead of the normalised step. Everything else as the paper.
+    "mlp-adam": TrainConfig(network="mlp", actor_optimizer="adam"),
+}
+
+
+def train_config(name: str, **changes) -> TrainConfig:
+    """The named configuration `name` with `changes` applied (sizes for tiny runs)."""
+    if name not in CONFIGS:
+        raise SystemExit(f"error: unknown --config {name!r}; valid: {', '.join(CONFIGS)}")
+    return CONFIGS[name].replace(**changes)
+
+
+def steps_per_pref(scale: float, steps: int | None) -> int:
+    """Environment steps per preference: `steps`, or `scale` times the paper's 1M."""
+    if steps is not None:
+        if steps < 1:
+            raise SystemExit(f"error: --steps-per-pref must be >= 1, got {steps}")
+        return steps
+    if not scale > 0:
+        raise SystemExit(f"error: --scale must be > 0, got {scale}")
+    return max(1, round(scale * PAPER_STEPS_PER_PREF))
+
+
+def policy_summary(row: dict) -> dict:
+    """Forward speed and control effort of one evaluated policy (a `front.json` row).
+
+    The walker's objectives are `[x_velocity, -sum(a^2)] + healthy_reward` per step with
+    `healthy_reward = 1` on every step but a falling one, so over an episode of length
+    `L` the mean forward speed is `(R_0 - L) / L` m/s and the mean control energy per
+    step `(L - R_1) / L`, each exact up to the one unpaid healthy reward of a fall
+    (at most `1 / L`).
+    """
+    length = max(float(row["episode_length"]), 1.0)
+    forward, control = (float(v) for v in row["return"])
+    return {
+        "pref": row["pref"],
+        "forward_return": forward,
+        "control_return": control,
+        "episode_length": length,
+        "mean_speed_m_per_s": (forward - length) / length,
+        "mean_control_per_step": (length - control) / length,
+    }
+
+
+def rank_correlation(x, y) -> float:
+    """Spearman's rank correlation of two 1-D sequences (average ranks for ties)."""
+
+    def ranks(v):
+        v = np.asarray(v, dtype=float)
+        order = np.argsort(v, kind="stable")
+        r = np.empty(len(v))
+        r[order] = np.arange(len(v), dtype=float)
+        for value in np.unique(v):
+            tied = v == value
+            r[tied] = r[tied].mean()
+        return r
+
+    rx, ry = ranks(x), ranks(y)
+    if rx.std() == 0 or ry.std() == 0:
+        return float("nan")
+    return float(np.corrcoef(rx, ry)[0, 1])
+
+
+def machine() -> dict:
+    """Where the results were computed."""
+    import os
+    import platform
+
+    return {
+        "platform": jax.default_backend(),
+        "devices": [str(d) for d in jax.devices()],
+        "device_kind": jax.devices()[0].device_kind,
+        "cpu_count": os.cpu_count(),
+        "processor": platform.processor() or platform.machine(),
+    }
+
+
+def smooth(y: np.ndarray, window: int) -> np.ndarray:
+    """Trailing moving average over `window` entries (`y` shorter than it: unchanged)."""
+    y = np.asarray(y, dtype=float)
+    if window <= 1 or len(y) < window:
+        return y
+    return np.convolve(y, np.ones(window) / window, mode="valid")
