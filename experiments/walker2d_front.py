@@ -37,6 +37,23 @@ from wcac_jax import plot  # noqa: E402
 from wcac_jax.sweep import PAPER_PREFS, SweepConfig, SweepError, run_sweep  # noqa: E402
 
 
+def write_figures(out, directions, config_name, steps, steps_per_iteration) -> None:
+    """`front.png` and `curves.png` from the sweeps saved in `out/<direction>/`."""
+    runs = [os.path.join(out, d) for d in directions]
+    fig = plot.plot_front(runs, labels=list(directions))
+    fig.axes[0].set_title(
+        f"Walker2d front, config '{config_name}', {steps:,} env steps per preference"
+    )
+    fig.savefig(os.path.join(out, "front.png"), dpi=120)
+    plot.plt.close(fig)
+    window = max(1, round(500 / steps_per_iteration))
+    fig = plot.plot_curves(runs[0], smooth=window)
+    fig.suptitle(f"{directions[0]}: training episode returns (smoothed over ~500 steps)")
+    fig.tight_layout()
+    fig.savefig(os.path.join(out, "curves.png"), dpi=110)
+    plot.plt.close(fig)
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--config", default="paper", help=f"one of {', '.join(common.CONFIGS)}")
@@ -51,7 +68,25 @@ def main(argv=None) -> int:
     p.add_argument("--chunks", type=int, default=10)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--out", default="runs/walker2d_front")
+    p.add_argument(
+        "--plot-only", action="store_true", help="redraw the figures of a finished --out"
+    )
     args = p.parse_args(argv)
+    if args.plot_only:
+        with open(os.path.join(args.out, "summary.json")) as f:
+            summary = json.load(f)
+        first = os.path.join(args.out, next(iter(summary["directions"])), "config.json")
+        with open(first) as f:
+            train = json.load(f)["train"]
+        write_figures(
+            args.out,
+            list(summary["directions"]),
+            summary["config_name"],
+            summary["steps_per_pref"],
+            train["num_envs"] * (train["critic_steps"] + train["rollout_steps"]),
+        )
+        print(f"redrew the figures in {args.out}")
+        return 0
 
     sizes = {
         k: v
@@ -73,7 +108,6 @@ def main(argv=None) -> int:
         "machine": common.machine(),
         "directions": {},
     }
-    runs = []
     for direction in args.directions:
         config = SweepConfig(
             prefs=PAPER_PREFS,
@@ -109,7 +143,6 @@ def main(argv=None) -> int:
             "compile_s": front["compile_s"],
             "wall_s": wall,
         }
-        runs.append(run_dir)
         print(f"[walker2d_front] {direction}: HV {front['hypervolume']:.4g}, {wall:.0f} s")
         for pol in policies:
             print(
@@ -119,18 +152,7 @@ def main(argv=None) -> int:
                 f"control {pol['mean_control_per_step']:.3f}/step"
             )
 
-    fig = plot.plot_front(runs, labels=list(args.directions))
-    fig.axes[0].set_title(
-        f"Walker2d front, config '{args.config}', {steps:,} env steps per preference"
-    )
-    fig.savefig(os.path.join(args.out, "front.png"), dpi=120)
-    plot.plt.close(fig)
-    window = max(1, round(500 / base.env_steps_per_iteration))
-    fig = plot.plot_curves(runs[0], smooth=window)
-    fig.suptitle(f"{args.directions[0]}: training episode returns (smoothed over ~500 steps)")
-    fig.tight_layout()
-    fig.savefig(os.path.join(args.out, "curves.png"), dpi=110)
-    plot.plt.close(fig)
+    write_figures(args.out, args.directions, args.config, steps, base.env_steps_per_iteration)
     with open(os.path.join(args.out, "summary.json"), "w") as f:
         json.dump(summary, f, indent=2)
     print(f"wrote {args.out}")

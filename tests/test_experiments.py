@@ -210,6 +210,10 @@ def test_walker2d_front_tiny(tmp_path, jax_cache):
         )
     for name in ("front.png", "curves.png"):
         assert (tmp_path / name).stat().st_size > 1000
+        (tmp_path / name).unlink()
+    _run("walker2d_front.py", "--plot-only", "--out", str(tmp_path))  # redraws, no training
+    for name in ("front.png", "curves.png"):
+        assert (tmp_path / name).stat().st_size > 1000
 
 
 @pytest.mark.slow

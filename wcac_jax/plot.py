@@ -18,6 +18,7 @@ if os.environ.get("MPLBACKEND") is None and not os.environ.get("DISPLAY"):
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
+from matplotlib.ticker import EngFormatter  # noqa: E402
 
 from wcac_jax import pareto  # noqa: E402
 
@@ -162,6 +163,7 @@ def plot_curves(run, metric: str = "train/episode_return", smooth: int = 1) -> F
                 label=f"p = {np.array2string(prefs[i], precision=2)}",
             )
         ax.set_xlabel("environment steps per preference")
+        ax.xaxis.set_major_formatter(EngFormatter())  # 200k, not 200000 (ticks collide)
         ax.set_ylabel(f"{metric} [{names[j]}]")
         ax.grid(alpha=0.3)
     axes[-1].legend(fontsize=7, loc="best")
