@@ -29,6 +29,7 @@ matplotlib.use("Agg")
 
 import numpy as np  # noqa: E402
 import walker2d_common as common  # noqa: E402
+from matplotlib.ticker import EngFormatter  # noqa: E402
 
 from wcac_jax import plot  # noqa: E402
 from wcac_jax.sweep import SweepConfig, SweepError, run_sweep  # noqa: E402
@@ -42,6 +43,31 @@ def grid(depths, widths, fixed_width, fixed_depth) -> list[tuple[int, int]]:
     width sweep at `fixed_depth`, without repeating the size they share."""
     sizes = [(d, fixed_width) for d in depths] + [(fixed_depth, w) for w in widths]
     return list(dict.fromkeys(sizes))
+
+
+def write_figure(out: str, result: dict, fixed_width: int, fixed_depth: int) -> None:
+    """`ablation.png`: forward-return curves, mean over seeds with the min-max band; one
+    panel for the depth sweep (at `fixed_width`), one for the width sweep."""
+    fig, axes = plot.plt.subplots(1, 2, figsize=(11, 4), sharey=True)
+    for ax, key in zip(axes, ("depth", "width"), strict=True):
+        other, fixed = ("width", fixed_width) if key == "depth" else ("depth", fixed_depth)
+        sizes = sorted((s for s in result["sizes"] if s[other] == fixed), key=lambda s: s[key])
+        for i, s in enumerate(sizes):
+            x = np.asarray(s["curve_steps"])
+            ax.plot(x, s["curve_forward_mean"], color=f"C{i}", label=f"{key} {s[key]}")
+            ax.fill_between(
+                x, s["curve_forward_min"], s["curve_forward_max"], color=f"C{i}", alpha=0.2
+            )
+        ax.set_title(f"{key} ({other} {fixed}), p = {result['pref']}, {result['seeds']} seeds")
+        ax.set_xlabel("environment steps")
+        ax.xaxis.set_major_formatter(EngFormatter())
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    axes[0].set_ylabel("training forward return (smoothed over 500 steps)")
+    fig.suptitle(f"Walker2d depth/width ablation, config '{result['config_name']}'")
+    fig.tight_layout()
+    fig.savefig(os.path.join(out, "ablation.png"), dpi=110)
+    plot.plt.close(fig)
 
 
 def main(argv=None) -> int:
@@ -60,7 +86,14 @@ def main(argv=None) -> int:
     p.add_argument("--chunks", type=int, default=10)
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--out", default="runs/walker2d_ablation")
+    p.add_argument("--plot-only", action="store_true", help="redraw the figure of a finished --out")
     args = p.parse_args(argv)
+    if args.plot_only:
+        with open(os.path.join(args.out, "ablation.json")) as f:
+            result = json.load(f)
+        write_figure(args.out, result, result["fixed_width"], result["fixed_depth"])
+        print(f"redrew {os.path.join(args.out, 'ablation.png')}")
+        return 0
 
     if args.seeds < 1:
         print(f"error: --seeds must be >= 1, got {args.seeds}", file=sys.stderr)
@@ -83,6 +116,8 @@ def main(argv=None) -> int:
         "steps_per_pref": steps,
         "physics": args.physics,
         "smoothing_iterations": window,
+        "fixed_width": args.fixed_width,
+        "fixed_depth": args.fixed_depth,
         "machine": common.machine(),
         "sizes": [],
     }
@@ -134,27 +169,7 @@ def main(argv=None) -> int:
             }
         )
 
-    fig, axes = plot.plt.subplots(1, 2, figsize=(11, 4), sharey=True)
-    panels = (
-        ("depth", [s for s in result["sizes"] if s["width"] == args.fixed_width], "depth"),
-        ("width", [s for s in result["sizes"] if s["depth"] == args.fixed_depth], "width"),
-    )
-    for ax, (title, sizes, key) in zip(axes, panels, strict=True):
-        for i, s in enumerate(sizes):
-            x = np.asarray(s["curve_steps"])
-            ax.plot(x, s["curve_forward_mean"], color=f"C{i}", label=f"{key} {s[key]}")
-            ax.fill_between(
-                x, s["curve_forward_min"], s["curve_forward_max"], color=f"C{i}", alpha=0.2
-            )
-        fixed = f"width {args.fixed_width}" if key == "depth" else f"depth {args.fixed_depth}"
-        ax.set_title(f"{title} ({fixed}), p = {list(PREF)}, {args.seeds} seeds")
-        ax.set_xlabel("environment steps")
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
-    axes[0].set_ylabel("training forward return (smoothed over 500 steps)")
-    fig.tight_layout()
-    fig.savefig(os.path.join(args.out, "ablation.png"), dpi=110)
-    plot.plt.close(fig)
+    write_figure(args.out, result, args.fixed_width, args.fixed_depth)
     with open(os.path.join(args.out, "ablation.json"), "w") as f:
         json.dump(result, f, indent=2)
 

@@ -237,3 +237,6 @@ def test_walker2d_ablation_tiny(tmp_path, jax_cache):
     assert len(set(size["eval_forward_return"])) > 1  # the seeds differ
     assert len(size["curve_steps"]) == len(size["curve_forward_mean"]) > 0
     assert (tmp_path / "ablation.png").stat().st_size > 1000
+    (tmp_path / "ablation.png").unlink()
+    _run("walker2d_ablation.py", "--plot-only", "--out", str(tmp_path))  # redraws only
+    assert (tmp_path / "ablation.png").stat().st_size > 1000
