@@ -32,7 +32,7 @@ import walker2d_common as common  # noqa: E402
 from matplotlib.ticker import EngFormatter  # noqa: E402
 
 from wcac_jax import plot  # noqa: E402
-from wcac_jax.sweep import SweepConfig, SweepError, run_sweep  # noqa: E402
+from wcac_jax.sweep import SweepConfig, SweepError, TrainingDiverged, run_sweep  # noqa: E402
 
 PREF = (0.9, 0.1)
 SMOOTH_STEPS = 500  # the paper smooths its curves over 500 environment steps
@@ -139,6 +139,9 @@ def main(argv=None) -> int:
         except SweepError as err:
             print(f"error: {err}", file=sys.stderr)
             return 2
+        except TrainingDiverged as err:
+            print(f"error: {err}", file=sys.stderr)
+            return 3
         wall = time.perf_counter() - t0
         curves = np.load(os.path.join(args.out, name, "curves.npz"))
         fwd = curves["train/episode_return"][..., 0]  # [seeds, T]

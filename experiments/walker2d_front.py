@@ -34,7 +34,13 @@ import numpy as np  # noqa: E402
 import walker2d_common as common  # noqa: E402
 
 from wcac_jax import plot  # noqa: E402
-from wcac_jax.sweep import PAPER_PREFS, SweepConfig, SweepError, run_sweep  # noqa: E402
+from wcac_jax.sweep import (  # noqa: E402
+    PAPER_PREFS,
+    SweepConfig,
+    SweepError,
+    TrainingDiverged,
+    run_sweep,
+)
 
 
 def write_figures(out, directions, config_name, steps, steps_per_iteration) -> None:
@@ -126,6 +132,9 @@ def main(argv=None) -> int:
         except SweepError as err:
             print(f"error: {err}", file=sys.stderr)
             return 2
+        except TrainingDiverged as err:
+            print(f"error: {err}", file=sys.stderr)
+            return 3
         wall = time.perf_counter() - t0
         policies = [common.policy_summary(row) for row in front["prefs"]]
         forward = [pol["forward_return"] for pol in policies]
