@@ -32,7 +32,7 @@ import walker2d_common as common  # noqa: E402
 from matplotlib.ticker import EngFormatter  # noqa: E402
 
 from wcac_jax import plot  # noqa: E402
-from wcac_jax.sweep import SweepConfig, SweepError, TrainingDiverged, run_sweep  # noqa: E402
+from wcac_jax.sweep import SweepConfig  # noqa: E402
 
 PREF = (0.9, 0.1)
 SMOOTH_STEPS = 500  # the paper smooths its curves over 500 environment steps
@@ -72,21 +72,12 @@ def write_figure(out: str, result: dict, fixed_width: int, fixed_depth: int) -> 
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--config", default="paper", help=f"one of {', '.join(common.CONFIGS)}")
-    p.add_argument("--scale", type=float, default=1.0, help="fraction of 1M env steps")
-    p.add_argument("--steps-per-pref", type=int, default=None, help="overrides --scale")
+    common.add_run_args(p, out="runs/walker2d_ablation")
     p.add_argument("--seeds", type=int, default=3, help="seeds per size (vmapped)")
     p.add_argument("--depths", type=int, nargs="+", default=[1, 2, 4])
     p.add_argument("--widths", type=int, nargs="+", default=[64, 128, 256])
     p.add_argument("--fixed-width", type=int, default=256, help="width of the depth sweep")
     p.add_argument("--fixed-depth", type=int, default=2, help="depth of the width sweep")
-    p.add_argument("--physics", default="brax", help="brax or gymnasium-v5")
-    p.add_argument("--envs-per-pref", type=int, default=None, help="N (default: the config's)")
-    p.add_argument("--eval-episodes", type=int, default=8)
-    p.add_argument("--chunks", type=int, default=10)
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--out", default="runs/walker2d_ablation")
-    p.add_argument("--plot-only", action="store_true", help="redraw the figure of a finished --out")
     args = p.parse_args(argv)
     if args.plot_only:
         with open(os.path.join(args.out, "ablation.json")) as f:
@@ -96,16 +87,10 @@ def main(argv=None) -> int:
         return 0
 
     if args.seeds < 1:
-        print(f"error: --seeds must be >= 1, got {args.seeds}", file=sys.stderr)
-        return 2
-    base = common.train_config(
-        args.config, **({} if args.envs_per_pref is None else {"num_envs": args.envs_per_pref})
-    )
+        common.fail(f"--seeds must be >= 1, got {args.seeds}")
+    base = common.train_config(args.config, num_envs=args.envs_per_pref)
     steps = common.steps_per_pref(args.scale, args.steps_per_pref)
-    if os.path.exists(args.out) and os.listdir(args.out):
-        print(f"error: --out {args.out!r} is not empty", file=sys.stderr)
-        return 2
-    os.makedirs(args.out, exist_ok=True)
+    common.make_out(args.out)
     window = max(1, round(SMOOTH_STEPS / base.env_steps_per_iteration))
 
     result = {
@@ -134,14 +119,7 @@ def main(argv=None) -> int:
         )
         print(f"[walker2d_ablation] {name}: {args.seeds} seeds x {steps:,} env steps", flush=True)
         t0 = time.perf_counter()
-        try:
-            front = run_sweep(config, os.path.join(args.out, name), chunks=args.chunks)
-        except SweepError as err:
-            print(f"error: {err}", file=sys.stderr)
-            return 2
-        except TrainingDiverged as err:
-            print(f"error: {err}", file=sys.stderr)
-            return 3
+        front = common.sweep(config, os.path.join(args.out, name), args.chunks)
         wall = time.perf_counter() - t0
         curves = np.load(os.path.join(args.out, name, "curves.npz"))
         fwd = curves["train/episode_return"][..., 0]  # [seeds, T]

@@ -8,10 +8,15 @@ silently tuned: the scripts record the name and the full config with the results
 
 from __future__ import annotations
 
+import argparse
+import os
+import sys
+
 import jax
 import numpy as np
 
 from wcac_jax.config import TrainConfig
+from wcac_jax.sweep import SweepConfig, SweepError, TrainingDiverged, run_sweep
 
 PAPER_STEPS_PER_PREF = 1_000_000
 
@@ -27,22 +32,59 @@ CONFIGS = {
 }
 
 
+def fail(message, status: int = 2):
+    """One `error:` line on stderr, then exit with `status` (2: bad input, 3: NaN)."""
+    print(f"error: {message}", file=sys.stderr)
+    raise SystemExit(status)
+
+
+def add_run_args(parser: argparse.ArgumentParser, out: str) -> None:
+    """The flags both Walker2d scripts take."""
+    parser.add_argument("--config", default="paper", help=f"one of {', '.join(CONFIGS)}")
+    parser.add_argument("--scale", type=float, default=1.0, help="fraction of 1M env steps")
+    parser.add_argument("--steps-per-pref", type=int, default=None, help="overrides --scale")
+    parser.add_argument("--physics", default="brax", help="brax or gymnasium-v5")
+    parser.add_argument("--envs-per-pref", type=int, default=None, help="N (default: config's)")
+    parser.add_argument("--eval-episodes", type=int, default=8)
+    parser.add_argument("--chunks", type=int, default=10)
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--out", default=out)
+    parser.add_argument("--plot-only", action="store_true", help="redraw a finished --out")
+
+
 def train_config(name: str, **changes) -> TrainConfig:
     """The named configuration `name` with `changes` applied (sizes for tiny runs)."""
     if name not in CONFIGS:
-        raise SystemExit(f"error: unknown --config {name!r}; valid: {', '.join(CONFIGS)}")
-    return CONFIGS[name].replace(**changes)
+        fail(f"unknown --config {name!r}; valid: {', '.join(CONFIGS)}")
+    return CONFIGS[name].replace(**{k: v for k, v in changes.items() if v is not None})
 
 
 def steps_per_pref(scale: float, steps: int | None) -> int:
     """Environment steps per preference: `steps`, or `scale` times the paper's 1M."""
     if steps is not None:
         if steps < 1:
-            raise SystemExit(f"error: --steps-per-pref must be >= 1, got {steps}")
+            fail(f"--steps-per-pref must be >= 1, got {steps}")
         return steps
     if not scale > 0:
-        raise SystemExit(f"error: --scale must be > 0, got {scale}")
+        fail(f"--scale must be > 0, got {scale}")
     return max(1, round(scale * PAPER_STEPS_PER_PREF))
+
+
+def make_out(out: str) -> None:
+    """Creates the output directory, refusing a non-empty one."""
+    if os.path.exists(out) and os.listdir(out):
+        fail(f"--out {out!r} is not empty")
+    os.makedirs(out, exist_ok=True)
+
+
+def sweep(config: SweepConfig, out: str, chunks: int) -> dict:
+    """`run_sweep`, with bad input (status 2) and NaN (status 3) as one-line exits."""
+    try:
+        return run_sweep(config, out, chunks=chunks)
+    except SweepError as err:
+        fail(err, 2)
+    except TrainingDiverged as err:
+        fail(err, 3)
 
 
 def policy_summary(row: dict) -> dict:

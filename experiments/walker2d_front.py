@@ -34,13 +34,7 @@ import numpy as np  # noqa: E402
 import walker2d_common as common  # noqa: E402
 
 from wcac_jax import plot  # noqa: E402
-from wcac_jax.sweep import (  # noqa: E402
-    PAPER_PREFS,
-    SweepConfig,
-    SweepError,
-    TrainingDiverged,
-    run_sweep,
-)
+from wcac_jax.sweep import PAPER_PREFS, SweepConfig  # noqa: E402
 
 
 def write_figures(out, directions, config_name, steps, steps_per_iteration) -> None:
@@ -62,21 +56,10 @@ def write_figures(out, directions, config_name, steps, steps_per_iteration) -> N
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--config", default="paper", help=f"one of {', '.join(common.CONFIGS)}")
-    p.add_argument("--scale", type=float, default=1.0, help="fraction of 1M env steps/pref")
-    p.add_argument("--steps-per-pref", type=int, default=None, help="overrides --scale")
+    common.add_run_args(p, out="runs/walker2d_front")
     p.add_argument("--directions", nargs="+", default=["smooth_wc", "linear"])
-    p.add_argument("--physics", default="brax", help="brax or gymnasium-v5")
-    p.add_argument("--envs-per-pref", type=int, default=None, help="N (default: the config's)")
     p.add_argument("--width", type=int, default=None, help="(default: the config's)")
     p.add_argument("--depth", type=int, default=None, help="(default: the config's)")
-    p.add_argument("--eval-episodes", type=int, default=8)
-    p.add_argument("--chunks", type=int, default=10)
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--out", default="runs/walker2d_front")
-    p.add_argument(
-        "--plot-only", action="store_true", help="redraw the figures of a finished --out"
-    )
     args = p.parse_args(argv)
     if args.plot_only:
         with open(os.path.join(args.out, "summary.json")) as f:
@@ -94,17 +77,11 @@ def main(argv=None) -> int:
         print(f"redrew the figures in {args.out}")
         return 0
 
-    sizes = {
-        k: v
-        for k, v in (("num_envs", args.envs_per_pref), ("width", args.width), ("depth", args.depth))
-        if v is not None
-    }
-    base = common.train_config(args.config, **sizes)
+    base = common.train_config(
+        args.config, num_envs=args.envs_per_pref, width=args.width, depth=args.depth
+    )
     steps = common.steps_per_pref(args.scale, args.steps_per_pref)
-    if os.path.exists(args.out) and os.listdir(args.out):
-        print(f"error: --out {args.out!r} is not empty", file=sys.stderr)
-        return 2
-    os.makedirs(args.out, exist_ok=True)
+    common.make_out(args.out)
 
     summary = {
         "config_name": args.config,
@@ -127,14 +104,7 @@ def main(argv=None) -> int:
         run_dir = os.path.join(args.out, direction)
         print(f"[walker2d_front] {direction}: 9 preferences x {steps:,} env steps", flush=True)
         t0 = time.perf_counter()
-        try:
-            front = run_sweep(config, run_dir, chunks=args.chunks)
-        except SweepError as err:
-            print(f"error: {err}", file=sys.stderr)
-            return 2
-        except TrainingDiverged as err:
-            print(f"error: {err}", file=sys.stderr)
-            return 3
+        front = common.sweep(config, run_dir, args.chunks)
         wall = time.perf_counter() - t0
         policies = [common.policy_summary(row) for row in front["prefs"]]
         forward = [pol["forward_return"] for pol in policies]

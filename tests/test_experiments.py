@@ -176,8 +176,30 @@ def test_named_configs_keep_the_paper_setting_apart():
     assert (paper.actor_lr, paper.critic_lr, paper.gamma, paper.mu) == (3e-4, 1e-3, 0.99, 0.05)
     assert walker2d_common.steps_per_pref(0.2, None) == 200_000
     assert walker2d_common.steps_per_pref(1.0, 123) == 123
-    with pytest.raises(SystemExit, match="mlp"):
-        walker2d_common.train_config("nope")
+    assert walker2d_common.train_config("paper", width=None, depth=1).depth == 1
+
+
+@pytest.mark.parametrize(
+    ("script", "args", "named"),
+    [
+        ("walker2d_front.py", ["--config", "nope"], "'nope'; valid: paper, mlp-adam"),
+        ("walker2d_front.py", ["--scale", "0"], "--scale must be > 0, got 0.0"),
+        ("walker2d_ablation.py", ["--seeds", "0"], "--seeds must be >= 1, got 0"),
+        ("walker2d_ablation.py", ["--steps-per-pref", "-5"], "got -5"),
+    ],
+)
+def test_walker2d_scripts_reject_bad_input(tmp_path, script, args, named):
+    out = tmp_path / "out"
+    proc = subprocess.run(
+        [sys.executable, os.path.join(ROOT, "experiments", script), *args, "--out", str(out)],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert proc.returncode == 2
+    assert proc.stderr.strip().splitlines()[-1].startswith("error:")
+    assert named in proc.stderr
+    assert not out.exists()
 
 
 def test_ablation_grid_is_the_papers():
