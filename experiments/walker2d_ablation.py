@@ -35,7 +35,6 @@ from wcac_jax import plot  # noqa: E402
 from wcac_jax.sweep import SweepConfig  # noqa: E402
 
 PREF = (0.9, 0.1)
-SMOOTH_STEPS = 500  # the paper smooths its curves over 500 environment steps
 
 
 def grid(depths, widths, fixed_width, fixed_depth) -> list[tuple[int, int]]:
@@ -91,7 +90,7 @@ def main(argv=None) -> int:
     base = common.train_config(args.config, num_envs=args.envs_per_pref)
     steps = common.steps_per_pref(args.scale, args.steps_per_pref)
     common.make_out(args.out)
-    window = max(1, round(SMOOTH_STEPS / base.env_steps_per_iteration))
+    window = common.smoothing_window(base.env_steps_per_iteration)
 
     result = {
         "config_name": args.config,
@@ -123,7 +122,7 @@ def main(argv=None) -> int:
         wall = time.perf_counter() - t0
         curves = np.load(os.path.join(args.out, name, "curves.npz"))
         fwd = curves["train/episode_return"][..., 0]  # [seeds, T]
-        smoothed = np.stack([common.smooth(y, window) for y in fwd])
+        smoothed = np.stack([plot.moving_average(y, window) for y in fwd])
         tail = max(1, fwd.shape[1] // 20)  # the last 5% of iterations
         policies = [common.policy_summary(row) for row in front["prefs"]]
         eval_fwd = np.array([pol["forward_return"] for pol in policies])

@@ -19,6 +19,7 @@ from wcac_jax.config import TrainConfig
 from wcac_jax.sweep import SweepConfig, SweepError, TrainingDiverged, run_sweep
 
 PAPER_STEPS_PER_PREF = 1_000_000
+SMOOTH_STEPS = 500  # the paper smooths its learning curves over 500 environment steps
 
 CONFIGS = {
     # The paper: its ReLU network (fixed A and c, trainable W, 1/sqrt(w) scaling) for the
@@ -68,6 +69,11 @@ def steps_per_pref(scale: float, steps: int | None) -> int:
     if not scale > 0:
         fail(f"--scale must be > 0, got {scale}")
     return max(1, round(scale * PAPER_STEPS_PER_PREF))
+
+
+def smoothing_window(steps_per_iteration: int) -> int:
+    """Iterations in a moving-average window of about `SMOOTH_STEPS` environment steps."""
+    return max(1, round(SMOOTH_STEPS / steps_per_iteration))
 
 
 def make_out(out: str) -> None:
@@ -139,11 +145,3 @@ def machine() -> dict:
         "cpu_count": os.cpu_count(),
         "processor": platform.processor() or platform.machine(),
     }
-
-
-def smooth(y: np.ndarray, window: int) -> np.ndarray:
-    """Trailing moving average over `window` entries (`y` shorter than it: unchanged)."""
-    y = np.asarray(y, dtype=float)
-    if window <= 1 or len(y) < window:
-        return y
-    return np.convolve(y, np.ones(window) / window, mode="valid")

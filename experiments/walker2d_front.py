@@ -37,17 +37,18 @@ from wcac_jax import plot  # noqa: E402
 from wcac_jax.sweep import PAPER_PREFS, SweepConfig  # noqa: E402
 
 
-def write_figures(out, directions, config_name, steps, steps_per_iteration) -> None:
+def write_figures(out: str, summary: dict) -> None:
     """`front.png` and `curves.png` from the sweeps saved in `out/<direction>/`."""
+    directions = list(summary["directions"])
     runs = [os.path.join(out, d) for d in directions]
-    fig = plot.plot_front(runs, labels=list(directions))
+    fig = plot.plot_front(runs, labels=directions)
     fig.axes[0].set_title(
-        f"Walker2d front, config '{config_name}', {steps:,} env steps per preference"
+        f"Walker2d front, config '{summary['config_name']}', "
+        f"{summary['steps_per_pref']:,} env steps per preference"
     )
     fig.savefig(os.path.join(out, "front.png"), dpi=120)
     plot.plt.close(fig)
-    window = max(1, round(500 / steps_per_iteration))
-    fig = plot.plot_curves(runs[0], smooth=window)
+    fig = plot.plot_curves(runs[0], smooth=summary["smoothing_iterations"])
     fig.suptitle(f"{directions[0]}: training episode returns (smoothed over ~500 steps)")
     fig.tight_layout()
     fig.savefig(os.path.join(out, "curves.png"), dpi=110)
@@ -64,16 +65,10 @@ def main(argv=None) -> int:
     if args.plot_only:
         with open(os.path.join(args.out, "summary.json")) as f:
             summary = json.load(f)
-        first = os.path.join(args.out, next(iter(summary["directions"])), "config.json")
-        with open(first) as f:
-            train = json.load(f)["train"]
-        write_figures(
-            args.out,
-            list(summary["directions"]),
-            summary["config_name"],
-            summary["steps_per_pref"],
-            train["num_envs"] * (train["critic_steps"] + train["rollout_steps"]),
-        )
+        curves = os.path.join(args.out, next(iter(summary["directions"])), "curves.npz")
+        if not os.path.isfile(curves):
+            common.fail(f"{curves!r} is missing (committed results omit the curves; rerun)")
+        write_figures(args.out, summary)
         print(f"redrew the figures in {args.out}")
         return 0
 
@@ -88,6 +83,7 @@ def main(argv=None) -> int:
         "scale": steps / common.PAPER_STEPS_PER_PREF,
         "steps_per_pref": steps,
         "physics": args.physics,
+        "smoothing_iterations": common.smoothing_window(base.env_steps_per_iteration),
         "machine": common.machine(),
         "directions": {},
     }
@@ -131,7 +127,7 @@ def main(argv=None) -> int:
                 f"control {pol['mean_control_per_step']:.3f}/step"
             )
 
-    write_figures(args.out, args.directions, args.config, steps, base.env_steps_per_iteration)
+    write_figures(args.out, summary)
     with open(os.path.join(args.out, "summary.json"), "w") as f:
         json.dump(summary, f, indent=2)
     print(f"wrote {args.out}")

@@ -14,6 +14,8 @@ sys.path.insert(0, os.path.join(ROOT, "experiments"))
 import walker2d_ablation  # noqa: E402
 import walker2d_common  # noqa: E402
 
+from wcac_jax import plot  # noqa: E402
+
 # The Walker2d scripts run one sweep per direction or network size, each compiling its
 # own init, training and evaluation programs; a shared persistent compilation cache lets
 # the second sweep reuse the programs that are the same (init, evaluation).
@@ -205,7 +207,7 @@ def test_walker2d_scripts_reject_bad_input(tmp_path, script, args, named):
 def test_ablation_grid_is_the_papers():
     sizes = walker2d_ablation.grid([1, 2, 4], [64, 128, 256], 256, 2)
     assert sizes == [(1, 256), (2, 256), (4, 256), (2, 64), (2, 128)]
-    assert walker2d_common.smooth([1, 2, 3, 4], 2).tolist() == [1.5, 2.5, 3.5]
+    assert plot.moving_average([1, 2, 3, 4], 2).tolist() == [1.5, 2.5, 3.5]
 
 
 @pytest.mark.slow

@@ -136,6 +136,15 @@ def _pref_colours(prefs: np.ndarray):
     return [cmap(float(p[0])) for p in prefs]
 
 
+def moving_average(y, window: int) -> np.ndarray:
+    """Trailing moving average of a 1-D `y [T]` over `window` entries -> `[T - window + 1]`
+    (`window <= 1`, or `y` shorter than `window`: `y` unchanged)."""
+    y = np.asarray(y, dtype=float)
+    if window <= 1 or len(y) < window:
+        return y
+    return np.convolve(y, np.ones(window) / window, mode="valid")
+
+
 def plot_curves(run, metric: str = "train/episode_return", smooth: int = 1) -> Figure:
     """Learning curves: per-objective `metric` against environment steps, one line per
     preference (coloured by `p[0]`), one panel per objective.
@@ -152,9 +161,7 @@ def plot_curves(run, metric: str = "train/episode_return", smooth: int = 1) -> F
     axes = np.atleast_1d(axes)
     for j, ax in enumerate(axes):
         for i, colour in enumerate(_pref_colours(prefs)):
-            y = values[i, :, j]
-            if smooth > 1 and len(y) >= smooth:
-                y = np.convolve(y, np.ones(smooth) / smooth, mode="valid")
+            y = moving_average(values[i, :, j], smooth)
             ax.plot(
                 steps[i, -len(y) :],
                 y,
