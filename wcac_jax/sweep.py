@@ -207,7 +207,7 @@ class _Progress:
     """A tqdm bar on a terminal; plain lines otherwise."""
 
     def __init__(self, total_steps: int, enabled: bool | None):
-        self.total, self.start, self.done0 = total_steps, time.perf_counter(), None
+        self.total = total_steps
         tty = sys.stderr.isatty()
         self.enabled = True if enabled is None else enabled
         self.bar = None
@@ -217,8 +217,6 @@ class _Progress:
             self.bar = tqdm(total=total_steps, unit="step", unit_scale=True, desc="sweep")
 
     def update(self, done: int, chunk_s: float, chunk_steps: int):
-        if self.done0 is None:
-            self.done0 = done - chunk_steps
         rate = chunk_steps / max(chunk_s, 1e-9)
         if self.bar is not None:
             self.bar.update(done - self.bar.n)
