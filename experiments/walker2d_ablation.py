@@ -89,7 +89,7 @@ def main(argv=None) -> int:
         common.fail(f"--seeds must be >= 1, got {args.seeds}")
     base = common.train_config(args.config, num_envs=args.envs_per_pref)
     steps = common.steps_per_pref(args.scale, args.steps_per_pref)
-    common.make_out(args.out)
+    common.make_out(args.out, args.resume)
     window = common.smoothing_window(base.env_steps_per_iteration)
 
     result = {
@@ -103,6 +103,8 @@ def main(argv=None) -> int:
         "fixed_width": args.fixed_width,
         "fixed_depth": args.fixed_depth,
         "machine": common.machine(),
+        # a resumed run's wall_s counts this process only (0 for sweeps read back)
+        "resumed": args.resume,
         "sizes": [],
     }
     for depth, width in grid(args.depths, args.widths, args.fixed_width, args.fixed_depth):
@@ -118,7 +120,7 @@ def main(argv=None) -> int:
         )
         print(f"[walker2d_ablation] {name}: {args.seeds} seeds x {steps:,} env steps", flush=True)
         t0 = time.perf_counter()
-        front = common.sweep(config, os.path.join(args.out, name), args.chunks)
+        front = common.sweep(config, os.path.join(args.out, name), args.chunks, args.resume)
         wall = time.perf_counter() - t0
         curves = np.load(os.path.join(args.out, name, "curves.npz"))
         fwd = curves["train/episode_return"][..., 0]  # [seeds, T]

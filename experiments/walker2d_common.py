@@ -9,6 +9,7 @@ silently tuned: the scripts record the name and the full config with the results
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import sys
 
@@ -16,7 +17,13 @@ import jax
 import numpy as np
 
 from wcac_jax.config import TrainConfig
-from wcac_jax.sweep import SweepConfig, SweepError, TrainingDiverged, run_sweep
+from wcac_jax.sweep import (
+    SweepConfig,
+    SweepError,
+    TrainingDiverged,
+    check_output_dir,
+    run_sweep,
+)
 
 PAPER_STEPS_PER_PREF = 1_000_000
 SMOOTH_STEPS = 500  # the paper smooths its learning curves over 500 environment steps
@@ -51,6 +58,11 @@ def add_run_args(parser: argparse.ArgumentParser, out: str) -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--out", default=out)
     parser.add_argument("--plot-only", action="store_true", help="redraw a finished --out")
+    parser.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue an interrupted run in --out (finished sweeps are read, not rerun)",
+    )
 
 
 def train_config(name: str, **changes) -> TrainConfig:
@@ -76,17 +88,33 @@ def smoothing_window(steps_per_iteration: int) -> int:
     return max(1, round(SMOOTH_STEPS / steps_per_iteration))
 
 
-def make_out(out: str) -> None:
-    """Creates the output directory, refusing a non-empty one."""
+def make_out(out: str, resume: bool = False) -> None:
+    """Creates the output directory, refusing a non-empty one (or, with `resume`, a
+    missing or empty one: there is nothing to continue)."""
+    if resume:
+        if not (os.path.isdir(out) and os.listdir(out)):
+            fail(f"--resume: nothing to resume in --out {out!r}")
+        return
     if os.path.exists(out) and os.listdir(out):
-        fail(f"--out {out!r} is not empty")
+        fail(f"--out {out!r} is not empty (use --resume to continue an interrupted run)")
     os.makedirs(out, exist_ok=True)
 
 
-def sweep(config: SweepConfig, out: str, chunks: int) -> dict:
-    """`run_sweep`, with bad input (status 2) and NaN (status 3) as one-line exits."""
+def sweep(config: SweepConfig, out: str, chunks: int, resume: bool = False) -> dict:
+    """`run_sweep`, with bad input (status 2) and NaN (status 3) as one-line exits.
+
+    With `resume`, a sweep that already finished in `out` (its `front.json` is there) is
+    read back instead of rerun, one that was interrupted continues from its checkpoint
+    (bit for bit), and one never started starts.
+    """
+    front_path = os.path.join(out, "front.json")
+    started = os.path.isfile(os.path.join(out, "config.json"))
     try:
-        return run_sweep(config, out, chunks=chunks)
+        if resume and os.path.isfile(front_path):
+            check_output_dir(out, config, resume=True)  # the same sweep, or an error
+            with open(front_path) as f:
+                return json.load(f)
+        return run_sweep(config, out, chunks=chunks, resume=resume and started)
     except SweepError as err:
         fail(err, 2)
     except TrainingDiverged as err:

@@ -76,7 +76,7 @@ def main(argv=None) -> int:
         args.config, num_envs=args.envs_per_pref, width=args.width, depth=args.depth
     )
     steps = common.steps_per_pref(args.scale, args.steps_per_pref)
-    common.make_out(args.out)
+    common.make_out(args.out, args.resume)
 
     summary = {
         "config_name": args.config,
@@ -85,6 +85,8 @@ def main(argv=None) -> int:
         "physics": args.physics,
         "smoothing_iterations": common.smoothing_window(base.env_steps_per_iteration),
         "machine": common.machine(),
+        # a resumed run's wall_s counts this process only (0 for sweeps read back)
+        "resumed": args.resume,
         "directions": {},
     }
     for direction in args.directions:
@@ -100,7 +102,7 @@ def main(argv=None) -> int:
         run_dir = os.path.join(args.out, direction)
         print(f"[walker2d_front] {direction}: 9 preferences x {steps:,} env steps", flush=True)
         t0 = time.perf_counter()
-        front = common.sweep(config, run_dir, args.chunks)
+        front = common.sweep(config, run_dir, args.chunks, args.resume)
         wall = time.perf_counter() - t0
         policies = [common.policy_summary(row) for row in front["prefs"]]
         forward = [pol["forward_return"] for pol in policies]

@@ -2,6 +2,7 @@
 
 import json
 import os
+import shutil
 import subprocess
 import sys
 
@@ -188,6 +189,7 @@ def test_named_configs_keep_the_paper_setting_apart():
         ("walker2d_front.py", ["--scale", "0"], "--scale must be > 0, got 0.0"),
         ("walker2d_ablation.py", ["--seeds", "0"], "--seeds must be >= 1, got 0"),
         ("walker2d_ablation.py", ["--steps-per-pref", "-5"], "got -5"),
+        ("walker2d_front.py", ["--resume"], "--resume: nothing to resume"),
     ],
 )
 def test_walker2d_scripts_reject_bad_input(tmp_path, script, args, named):
@@ -238,6 +240,29 @@ def test_walker2d_front_tiny(tmp_path, jax_cache):
     _run("walker2d_front.py", "--plot-only", "--out", str(tmp_path))  # redraws, no training
     for name in ("front.png", "curves.png"):
         assert (tmp_path / name).stat().st_size > 1000
+
+    # --resume reads the finished smooth_wc sweep back and reruns the missing linear one
+    # (the interrupted-sweep case, a bit-identical continuation, is test_sweep's)
+    shutil.rmtree(tmp_path / "linear")
+    proc = _run(
+        "walker2d_front.py",
+        *TINY_WALKER,
+        "--width",
+        "16",
+        "--depth",
+        "1",
+        "--out",
+        str(tmp_path),
+        "--resume",
+        env=jax_cache,
+    )
+    assert "linear: 9 preferences" in proc.stdout
+    again = json.loads((tmp_path / "summary.json").read_text())
+    for direction in ("smooth_wc", "linear"):
+        assert (
+            again["directions"][direction]["policies"]
+            == summary["directions"][direction]["policies"]
+        )
 
 
 @pytest.mark.slow
