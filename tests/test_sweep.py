@@ -101,6 +101,36 @@ def test_chunking_does_not_change_results(tiny_run, tmp_path):
         assert a["return"] == b["return"]
 
 
+def test_load_sweep_restores_the_trained_state(tiny_run, tmp_path):
+    import jax
+
+    run = sweep.load_sweep(tiny_run)
+    with open(os.path.join(tiny_run, "config.json")) as f:
+        assert run.config.to_dict() == json.load(f)
+    _, curves = _load(tiny_run)
+    t = run.config.num_iterations
+    np.testing.assert_array_equal(np.asarray(run.state.iteration), [t] * 4)
+    for k, v in run.metrics.items():
+        np.testing.assert_array_equal(v, curves[k], err_msg=k)
+    # trained, not freshly initialised: the actor moved from the sweep's own initial
+    # parameters (preference i starts from fold_in(key(seed), i))
+    keys = jax.vmap(lambda i: jax.random.fold_in(jax.random.key(run.config.seed), i))(np.arange(4))
+    fresh = jax.vmap(run.trainer.init)(keys, np.asarray(run.config.prefs, np.float32))
+    moved = jax.tree.map(
+        lambda a, b: float(np.abs(np.asarray(a) - np.asarray(b)).max()),
+        run.state.actor.trainable,
+        fresh.actor.trainable,
+    )
+    assert min(jax.tree.leaves(moved)) > 0
+    # one preference's state replays on: the next iteration is finite and counted
+    state0 = jax.tree.map(lambda leaf: leaf[0], run.state)
+    state1, metrics = jax.jit(run.trainer.step)(state0, np.asarray(run.config.prefs[0]))
+    assert int(state1.iteration) == t + 1
+    assert all(np.isfinite(np.asarray(v)).all() for v in metrics.values())
+    with pytest.raises(sweep.SweepError, match="no sweep in"):
+        sweep.load_sweep(str(tmp_path))
+
+
 @pytest.mark.slow
 def test_sigkill_then_resume_equals_uninterrupted(tmp_path):
     out = str(tmp_path / "killed")

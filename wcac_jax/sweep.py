@@ -31,6 +31,7 @@ import sys
 import tempfile
 import time
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -39,7 +40,7 @@ import numpy as np
 from wcac_jax import envs, pareto
 from wcac_jax.config import TrainConfig
 from wcac_jax.scalarize import SCALARIZATIONS
-from wcac_jax.train import make_evaluate, make_trainer, resolve_j_ub
+from wcac_jax.train import Trainer, TrainState, make_evaluate, make_trainer, resolve_j_ub
 
 PAPER_PREFS = (
     (1.0, 0.0),
@@ -110,6 +111,25 @@ class SweepConfig:
             "eval_episodes": self.eval_episodes,
             "hv_ref": None if self.hv_ref is None else list(self.hv_ref),
         }
+
+    @classmethod
+    def from_dict(cls, d: dict) -> SweepConfig:
+        """The inverse of `to_dict` (e.g. a run's `config.json`)."""
+        train = dict(d["train"])
+        if train.get("projection_radius") is None:
+            train["projection_radius"] = math.inf
+        if train.get("j_ub") is not None:
+            train["j_ub"] = tuple(train["j_ub"])
+        return cls(
+            prefs=tuple(tuple(float(x) for x in p) for p in d["prefs"]),
+            env=d["env"],
+            env_options=dict(d["env_options"]),
+            train=TrainConfig(**train),
+            steps_per_pref=int(d["steps_per_pref"]),
+            seed=int(d["seed"]),
+            eval_episodes=int(d["eval_episodes"]),
+            hv_ref=None if d["hv_ref"] is None else tuple(d["hv_ref"]),
+        )
 
 
 def validate_prefs(prefs, m: int) -> np.ndarray:
@@ -249,6 +269,69 @@ def _from_checkpoint(saved: dict, template):
 def _metric_template(trainer, state, pref) -> dict:
     shapes = jax.eval_shape(trainer.step, state, pref)[1]
     return jax.tree.map(lambda s: jnp.zeros(s.shape, s.dtype), shapes)
+
+
+class LoadedSweep(NamedTuple):
+    """A sweep restored from its output directory (see `load_sweep`).
+
+    Attributes:
+      config: the sweep's configuration (from `config.json`).
+      trainer: the pure `init`/`step`/`run`/`mean_action` of its training setup.
+      state: the last checkpointed `TrainState`, every leaf with the preference axis
+        first (`[P, ...]`); `state.iteration[i]` iterations are done.
+      metrics: per-iteration metrics `[P, T, ...]` (zeros past `state.iteration`).
+    """
+
+    config: SweepConfig
+    trainer: Trainer
+    state: TrainState
+    metrics: dict
+
+
+def load_sweep(out: str) -> LoadedSweep:
+    """Restores the last checkpoint of the sweep in `out`, finished or interrupted.
+
+    The trained policies and critics, to evaluate, render or inspect; or, after a
+    `TrainingDiverged`, the last good state, to replay iteration by iteration:
+
+        run = load_sweep("runs/x")
+        state_i = jax.tree.map(lambda leaf: leaf[i], run.state)  # preference i
+        state_i, metrics_i = jax.jit(run.trainer.step)(state_i, run.config.prefs[i])
+
+    Raises:
+      SweepError: `out` holds no sweep configuration or no checkpoint.
+    """
+    path = os.path.join(out, "config.json")
+    if not os.path.isfile(path):
+        raise SweepError(f"no sweep in {out!r} (no config.json)")
+    with open(path) as f:
+        config = SweepConfig.from_dict(json.load(f))
+    import orbax.checkpoint as ocp
+
+    manager = ocp.CheckpointManager(os.path.abspath(os.path.join(out, "checkpoint")))
+    step = manager.latest_step()
+    if step is None:
+        raise SweepError(f"no checkpoint in {out!r}")
+    env = _make_env(config)
+    trainer = make_trainer(config.train_config(), env)
+    n_prefs, n_iters = len(config.prefs), config.num_iterations
+    prefs = jnp.asarray(np.asarray(config.prefs, np.float32))
+    keys = jax.vmap(lambda i: jax.random.fold_in(jax.random.key(config.seed), i))(
+        jnp.arange(n_prefs)
+    )
+    # shapes only: nothing is initialised or traced through the environment twice
+    state = jax.eval_shape(jax.vmap(trainer.init), keys, prefs)
+    shapes = jax.eval_shape(jax.vmap(trainer.step), state, prefs)[1]
+    template = {
+        "state": jax.tree.map(lambda s: np.zeros(s.shape, s.dtype), state),
+        "metrics": {
+            k: np.zeros((n_prefs, n_iters, *s.shape[1:]), s.dtype) for k, s in shapes.items()
+        },
+    }
+    restored = manager.restore(step, args=ocp.args.StandardRestore(_to_checkpoint(template)))
+    restored = _from_checkpoint(restored, template)
+    state = jax.tree.map(jnp.asarray, restored["state"])
+    return LoadedSweep(config, trainer, state, restored["metrics"])
 
 
 def run_sweep(
@@ -702,7 +785,9 @@ __all__ = [
     "PAPER_PREFS",
     "SweepConfig",
     "SweepError",
+    "LoadedSweep",
     "TrainingDiverged",
+    "load_sweep",
     "run_sweep",
     "validate_prefs",
     "main",
