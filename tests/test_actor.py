@@ -117,21 +117,80 @@ def test_min_norm_weights_by_hand(vectors, expected):
     np.testing.assert_allclose(lam, expected, atol=1e-4)
 
 
-def test_mgda_direction_descends_every_objective():
-    params = NetParams({"mean": jnp.array(0.1), "scale": jnp.array(0.3)}, {})
+def _linear_log_prob(params, obs, action):
+    """`log pi = obs . w`: the gradient of `mean_M(A_i log pi)` is `mean_M(A_i obs)`."""
+    del action
+    return obs @ params.trainable["w"]
 
-    def policy(params, obs, action):  # two parameters, so the gradients can conflict
-        mean = params.trainable["mean"] + params.trainable["scale"] * obs[..., :1]
-        return gaussian_log_prob(mean, jnp.log(jnp.array([SIGMA])), action)
 
-    obs = jax.random.normal(jax.random.key(0), (512, 1))
-    action = jax.random.normal(jax.random.key(1), (512, 1))
-    adv = jnp.stack([action[:, 0], -action[:, 0] * obs[:, 0]], axis=1)
-    pref = jnp.array([0.5, 0.5])
-    d, lam = actor.mgda_direction(policy, params, obs, action, adv, pref)
-    np.testing.assert_allclose(jnp.sum(lam), 1.0, rtol=1e-6)
-    grads = actor.objective_gradients(policy, params, obs, action, adv)
-    flat_d = jnp.stack([d["mean"], d["scale"]])
-    flat_g = jnp.stack([grads["mean"], grads["scale"]], axis=1) * pref[:, None]  # [m, 2]
-    # -d is the min-norm point v of the hull: v . (p_i g_i) >= ||v||^2 for every i
-    assert jnp.all(flat_g @ (-flat_d) >= jnp.sum(flat_d**2) * (1 - 1e-3))
+# two samples whose hand-computed per-objective gradients are
+# gradJ_1 = mean([2 * (1, 0), 0 * (0, 1)]) = (1, 0), gradJ_2 = mean([1 * (1, 0), 3 * (0, 1)])
+# = (0.5, 1.5)
+_OBS = jnp.array([[1.0, 0.0], [0.0, 1.0]])
+_ADV = jnp.array([[2.0, 1.0], [0.0, 3.0]])
+
+
+@pytest.mark.parametrize(
+    "pref,expected_d,expected_lam",
+    [
+        # corners: the objective with p_i = 0 is dropped, d = -gradJ_i
+        ([1.0, 0.0], [-1.0, 0.0], [1.0, 0.0]),
+        ([0.0, 1.0], [-0.5, -1.5], [0.0, 1.0]),
+        # hull of gradJ_i / p_i = (2, 0), (1, 3): min over t of (2 - t)^2 + (3t)^2, t = 0.2
+        ([0.5, 0.5], [-1.8, -0.6], [0.8, 0.2]),
+        # hull of (1.25, 0), (2.5, 7.5): the closest point is the first vertex
+        ([0.8, 0.2], [-1.25, 0.0], [1.0, 0.0]),
+    ],
+)
+def test_mgda_direction_by_hand(pref, expected_d, expected_lam):
+    params = NetParams({"w": jnp.zeros(2)}, {})
+    d, lam = actor.mgda_direction(
+        _linear_log_prob, params, _OBS, jnp.zeros((2, 1)), _ADV, jnp.array(pref)
+    )
+    np.testing.assert_allclose(d["w"], expected_d, atol=1e-5)
+    np.testing.assert_allclose(lam, expected_lam, atol=1e-5)
+
+
+def test_mgda_moves_at_a_corner_even_when_the_objectives_conflict():
+    """Opposite gradients: 0 is in the hull, so MGDA stops inside the simplex, but at the
+    corner p = [1, 0] the second objective is dropped and the first one is followed."""
+    params = NetParams({"w": jnp.zeros(2)}, {})
+    adv = jnp.array([[2.0, -2.0], [0.0, 0.0]])  # gradJ_1 = (1, 0) = -gradJ_2
+    d, _ = actor.mgda_direction(
+        _linear_log_prob, params, _OBS, jnp.zeros((2, 1)), adv, jnp.array([0.5, 0.5])
+    )
+    np.testing.assert_allclose(d["w"], [0.0, 0.0], atol=1e-6)
+    d, _ = actor.mgda_direction(
+        _linear_log_prob, params, _OBS, jnp.zeros((2, 1)), adv, jnp.array([1.0, 0.0])
+    )
+    np.testing.assert_allclose(d["w"], [-1.0, 0.0], atol=1e-6)
+
+
+@pytest.mark.parametrize("pref", [[0.2, 0.3, 0.5], [0.6, 0.0, 0.4], [0.0, 0.0, 1.0]])
+def test_mgda_matches_the_min_norm_point_of_the_exact_gradients(pref):
+    """Three objectives, five parameters: the exact gradients `mean_M(A_i obs)` and their
+    min-norm point over the hull of `gradJ_i / p_i` (`p_i > 0`) solved by SLSQP."""
+    from scipy.optimize import minimize
+
+    obs = jax.random.normal(jax.random.key(0), (64, 5))
+    adv = jax.random.normal(jax.random.key(1), (64, 3)) + jnp.array([0.5, -0.2, 0.1])
+    pref = np.asarray(pref)
+    exact = np.asarray(adv).T @ np.asarray(obs) / 64  # [m, 5]
+    keep = pref > 0
+    vertices = exact[keep] / pref[keep, None]
+    res = minimize(
+        lambda lam: np.sum((lam @ vertices) ** 2),
+        np.full(keep.sum(), 1.0 / keep.sum()),
+        bounds=[(0, 1)] * keep.sum(),
+        constraints={"type": "eq", "fun": lambda lam: np.sum(lam) - 1},
+        method="SLSQP",
+        options={"ftol": 1e-14},
+    )
+    expected_lam = np.zeros(3)
+    expected_lam[keep] = res.x
+    params = NetParams({"w": jnp.zeros(5)}, {})
+    d, lam = actor.mgda_direction(
+        _linear_log_prob, params, obs, jnp.zeros((64, 1)), adv, jnp.asarray(pref, jnp.float32)
+    )
+    np.testing.assert_allclose(lam, expected_lam, atol=2e-3)
+    np.testing.assert_allclose(d["w"], -(res.x @ vertices), atol=2e-3)

@@ -155,32 +155,39 @@ def make_optimizer(kind: str, learning_rate: float) -> optax.GradientTransformat
     raise ValueError(f"unknown actor optimizer {kind!r}; valid: {', '.join(ACTOR_OPTIMIZERS)}")
 
 
-def min_norm_weights(gram: chex.Array, num_steps: int = 100) -> chex.Array:
+def min_norm_weights(
+    gram: chex.Array, mask: chex.Array | None = None, num_steps: int = 100
+) -> chex.Array:
     """The convex weights of the min-norm point of a set of vectors, from their Gram matrix.
 
     Solves `min_{lambda in simplex} lambda^T G lambda` (`G_ij = g_i . g_j`) by Frank-Wolfe
     with exact line search (MGDA-UB, Sener & Koltun 2018): the result's combination
     `v = sum_i lambda_i g_i` satisfies `v . g_i >= ||v||^2` for every `i` at the optimum.
+    With `mask`, only the vectors with `mask_i` true take part (the others get weight 0).
 
     Args:
       gram: `[m, m]` Gram matrix.
+      mask: optional `[m]` booleans, at least one true: the vectors in the hull.
       num_steps: Frank-Wolfe iterations (exact for `m = 2` after one step).
 
     Returns:
-      `[m]` weights on the simplex.
+      `[m]` weights on the simplex, 0 where `mask` is false.
     """
     chex.assert_rank(gram, 2)
     m = gram.shape[0]
+    mask = jnp.ones((m,), bool) if mask is None else mask
+    chex.assert_shape(mask, (m,))
 
     def step(_, lam):
         g_lam = gram @ lam
-        t = jnp.argmin(g_lam)
+        t = jnp.argmin(jnp.where(mask, g_lam, jnp.inf))
         vv, vt, tt = lam @ g_lam, g_lam[t], gram[t, t]
         denom = vv - 2.0 * vt + tt
         gamma = jnp.where(denom > 1e-20, jnp.clip((vv - vt) / jnp.maximum(denom, 1e-20), 0, 1), 0)
         return (1.0 - gamma) * lam + gamma * jax.nn.one_hot(t, m, dtype=lam.dtype)
 
-    return jax.lax.fori_loop(0, num_steps, step, jnp.full((m,), 1.0 / m, gram.dtype))
+    lam0 = mask.astype(gram.dtype) / jnp.sum(mask)
+    return jax.lax.fori_loop(0, num_steps, step, lam0)
 
 
 def mgda_direction(
@@ -193,22 +200,34 @@ def mgda_direction(
 ) -> tuple[Any, chex.Array]:
     """MGDA's common-descent direction (the MOAC-style baseline of the paper's Remark 2).
 
-    The min-norm point `v = sum_i lambda_i p_i gradJ_i` of the convex hull of the
-    preference-scaled policy gradients (`m` backward passes); `d = -v` is a descent
-    direction for every objective at once (`-d . gradJ_i >= 0`), converging to a Pareto
-    *stationary* policy. Scaling by `p` lets the preference weigh the objectives (with
-    equal preferences it is plain MGDA; `p_i = 0` drops objective `i`).
+    The min-norm point `v = sum_i lambda_i gradJ_i / p_i` of the convex hull of the
+    policy gradients of the objectives with `p_i > 0`, each divided by its preference
+    (`m` backward passes); `d = -v` is a descent direction for every one of those
+    objectives at once (`-d . gradJ_i >= 0`), converging to a policy that is Pareto
+    *stationary* among them.
+
+    The preference enters as `1 / p_i`, so the min-norm point leans towards the
+    preferred objectives: with two orthogonal gradients of equal norm, `v` is proportional
+    to `p_1 gradJ_1 + p_2 gradJ_2`, the linear scalarization's direction. Multiplying by
+    `p_i` instead would give `gradJ_1 / p_1 + gradJ_2 / p_2` there, favouring the objective
+    the preference cares less about, and would put `0` in the hull as soon as some
+    `p_i = 0` (then `d = 0`: the corners of the simplex would never move). An objective
+    with `p_i = 0` is dropped: the hull holds only the other objectives' gradients, so at
+    a corner `e_i` the direction is `-gradJ_i`. With equal preferences this is plain MGDA.
 
     Args: as `direction`, without the scalarization weights.
 
     Returns:
-      `(d, lambda)`: the direction (like `params.trainable`) and the `[m]` MGDA weights.
+      `(d, lambda)`: the direction (like `params.trainable`) and the `[m]` MGDA weights
+      on the scaled gradients `gradJ_i / p_i` (0 where `p_i = 0`).
     """
     grads = objective_gradients(log_prob, params, obs, action, advantages)
-    scaled = jax.tree.map(lambda g: g * pref.reshape((-1,) + (1,) * (g.ndim - 1)), grads)
+    active = pref > 0
+    inv_pref = jnp.where(active, 1.0 / jnp.where(active, pref, 1.0), 0.0)
+    scaled = jax.tree.map(lambda g: g * inv_pref.reshape((-1,) + (1,) * (g.ndim - 1)), grads)
     flat = jnp.concatenate(
         [g.reshape(g.shape[0], -1) for g in jax.tree.leaves(scaled)], axis=1
     )  # [m, n_params]
-    lam = min_norm_weights(flat @ flat.T)
+    lam = min_norm_weights(flat @ flat.T, active)
     d = jax.tree.map(lambda g: -jnp.tensordot(lam, g, axes=1), scaled)
     return d, lam
