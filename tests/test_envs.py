@@ -87,6 +87,63 @@ def test_episode_wrapper_time_limit_terminal_and_auto_reset(fall):
         EpisodeWrapper(_Counter(fall), 0)
 
 
+class _RandomStart(Env):
+    """Starts at a uniform random position in [0, 1); +1 per step; never falls."""
+
+    num_objectives = 1
+    observation_size = 1
+    action_size = 1
+    backend = "none"
+
+    def reset(self, rng):
+        x = jax.random.uniform(rng, ())
+        z = jnp.zeros(())
+        return State(pipeline_state={"x": x}, obs=x[None], reward=jnp.zeros(1), done=z)
+
+    def step(self, state, action):
+        x = state.pipeline_state["x"] + 1
+        return state.replace(pipeline_state={"x": x}, obs=x[None], reward=jnp.ones(1))
+
+
+def _start_observations(key, num_steps, episode_length=3):
+    """Runs `num_steps` steps of 3-step episodes; returns every step's `obs` and `first_obs`
+    and the final state."""
+    env = EpisodeWrapper(_RandomStart(), episode_length)
+
+    def body(state, _):
+        state = env.step(state, jnp.zeros(1))
+        return state, (state.obs[0], state.info["first_obs"][0])
+
+    return jax.lax.scan(body, env.reset(key), None, length=num_steps)
+
+
+def test_episode_wrapper_draws_a_fresh_start_state_for_every_episode():
+    state, (obs, first) = jax.jit(_start_observations, static_argnums=1)(jax.random.key(0), 12)
+    starts = np.asarray(obs[2::3])  # the reset observation after each 3-step episode
+    assert np.all((starts >= 0) & (starts < 1))
+    assert len(set(starts.round(6))) == len(starts)  # four episodes, four start states
+    np.testing.assert_array_equal(np.asarray(first[2::3]), starts)  # first_obs follows
+    np.testing.assert_allclose(np.asarray(obs[3:12:3]), starts[:3] + 1, rtol=1e-6)
+    # deterministic given the key; another key, other start states
+    _, (again, _) = jax.jit(_start_observations, static_argnums=1)(jax.random.key(0), 12)
+    np.testing.assert_array_equal(obs, again)
+    _, (other, _) = jax.jit(_start_observations, static_argnums=1)(jax.random.key(1), 12)
+    assert not np.allclose(obs, other)
+
+
+def test_episode_wrapper_resets_do_not_depend_on_chunking():
+    """The reset keys live in the state: 5 + 7 steps give the same states as 12."""
+    env = EpisodeWrapper(_RandomStart(), 3)
+    step = jax.jit(env.step)
+    whole = env.reset(jax.random.key(2))
+    for _ in range(12):
+        whole = step(whole, jnp.zeros(1))
+    part, _ = jax.jit(_start_observations, static_argnums=1)(jax.random.key(2), 5)
+    for _ in range(7):
+        part = step(part, jnp.zeros(1))
+    jax.tree.map(np.testing.assert_array_equal, whole, part)
+
+
 def test_tabular_momdp_exact_values_match_monte_carlo():
     env = envs.make("tabular_momdp", episode_length=200)
     assert env.num_actions == 3 and env.observation_size == 4

@@ -10,8 +10,20 @@ over `N` environments and over preferences):
   bootstrap, truncated ones do;
 - `info["final_obs"]` is the true next observation, kept also when the episode ends and
   `obs` is replaced by the reset observation, so TD targets can bootstrap truncation;
-- a finished episode restarts from the environment's initial state drawn at `reset` (as
-  Brax's `AutoResetWrapper` does: each environment copy keeps its own start state).
+- a finished episode restarts from a FRESH start state, `env.reset(key)` with a new key
+  for every episode, as Gymnasium does (Brax's `AutoResetWrapper` instead replays the one
+  state drawn at the first reset, so `N` environments would see `N` start states for a
+  whole run). The keys are carried in the state (`info["reset_key"]`, raw key data) and
+  split once per step, so a run is deterministic given its first key and does not depend
+  on how it is chunked;
+- `info["first_obs"]` is the observation the current episode started from.
+
+Only the Brax `Env` API is used (`env.reset(key) -> State`, `env.step(state, action)`);
+the new episode's `pipeline_state` and `obs` are selected leaf by leaf, whatever they hold.
+Under `vmap` a per-environment branch executes both sides, so the reset is computed at
+every step and selected where `done`: on Walker2d (MJX) that costs one `mjx.forward` per
+step next to the step's four physics substeps (measured in the module's tests' commit
+message and the README's Performance section).
 """
 
 from __future__ import annotations
@@ -21,8 +33,16 @@ import jax.numpy as jnp
 from brax.envs.base import Env, State, Wrapper
 
 
+def _typed(key: jax.Array) -> jax.Array:
+    """A typed PRNG key from a typed key or raw uint32 key data."""
+    if jnp.issubdtype(key.dtype, jax.dtypes.prng_key):
+        return key
+    return jax.random.wrap_key_data(key)
+
+
 class EpisodeWrapper(Wrapper):
-    """Time limit + auto-reset for one unbatched environment with `[m]` rewards."""
+    """Time limit + auto-reset (fresh start state per episode) for one unbatched
+    environment with `[m]` rewards."""
 
     def __init__(self, env: Env, episode_length: int):
         super().__init__(env)
@@ -31,7 +51,8 @@ class EpisodeWrapper(Wrapper):
         self.episode_length = int(episode_length)
 
     def reset(self, rng: jax.Array) -> State:
-        state = self.env.reset(rng)
+        key_env, key_next = jax.random.split(_typed(rng))
+        state = self.env.reset(key_env)
         zero = jnp.zeros((), jnp.float32)
         info = {
             **state.info,
@@ -39,8 +60,8 @@ class EpisodeWrapper(Wrapper):
             "truncation": zero,
             "terminal": zero,
             "final_obs": state.obs,
-            "first_pipeline_state": state.pipeline_state,
             "first_obs": state.obs,
+            "reset_key": jax.random.key_data(key_next),
         }
         return state.replace(info=info, done=zero)
 
@@ -50,18 +71,21 @@ class EpisodeWrapper(Wrapper):
         steps = state.info["steps"] + 1
         time_up = (steps >= self.episode_length).astype(jnp.float32)
         done = jnp.maximum(terminal, time_up)
-        first_ps = state.info["first_pipeline_state"]
-        pipeline_state = jax.tree.map(
-            lambda a, b: jnp.where(done > 0, a, b), first_ps, nstate.pipeline_state
-        )
-        obs = jnp.where(done > 0, state.info["first_obs"], nstate.obs)
+        key_next, key_env = jax.random.split(jax.random.wrap_key_data(state.info["reset_key"]))
+        fresh = self.env.reset(key_env)
+
+        def select(new, old):
+            return jnp.where(done > 0, new, old)
+
+        pipeline_state = jax.tree.map(select, fresh.pipeline_state, nstate.pipeline_state)
+        obs = select(fresh.obs, nstate.obs)
         info = {
             **nstate.info,
             "steps": jnp.where(done > 0, 0, steps).astype(jnp.int32),
             "truncation": time_up * (1.0 - terminal),
             "terminal": terminal,
             "final_obs": nstate.obs,
-            "first_pipeline_state": first_ps,
-            "first_obs": state.info["first_obs"],
+            "first_obs": select(fresh.obs, state.info["first_obs"]),
+            "reset_key": jax.random.key_data(key_next),
         }
         return nstate.replace(pipeline_state=pipeline_state, obs=obs, done=done, info=info)
