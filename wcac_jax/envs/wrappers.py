@@ -21,9 +21,10 @@ over `N` environments and over preferences):
 Only the Brax `Env` API is used (`env.reset(key) -> State`, `env.step(state, action)`);
 the new episode's `pipeline_state` and `obs` are selected leaf by leaf, whatever they hold.
 Under `vmap` a per-environment branch executes both sides, so the reset is computed at
-every step and selected where `done`: on Walker2d (MJX) that costs one `mjx.forward` per
-step next to the step's four physics substeps (measured in the module's tests' commit
-message and the README's Performance section).
+every step and selected where `done`: on Walker2d (MJX) that is one `mjx.forward` per
+step next to the step's four physics substeps. Measured (2-core CPU, batch 16, random
+actions, CPU time, best of 8): 4,194 env-steps/s against 4,620 when replaying the first
+start state, about 9 % (the medians, 4,072 and 3,873, are within the machine's noise).
 """
 
 from __future__ import annotations
