@@ -140,6 +140,24 @@ def unit_sphere(x: chex.Array, eps: float = 1e-8) -> chex.Array:
     return x / jnp.maximum(jnp.linalg.norm(x, axis=-1, keepdims=True), eps)
 
 
+def paper_input(x: chex.Array) -> chex.Array:
+    """The paper network's input: `[x, 1]` projected onto the unit sphere. `[..., d] ->
+    [..., d + 1]`.
+
+    The constant `1` is a bias feature, so that the input is never all zero by
+    construction. The running normaliser maps a feature that never varies to exactly 0
+    (its std is clamped to a tiny value and `x - mean = 0`), and the paper network has no
+    bias, so an all-zero input gives an output of exactly 0 whatever `W` is: on
+    `concave_bandit`, whose observation is the constant `[1.]`, every policy would then
+    stay at its initial action. A bias feature is what a bias-free network needs anyway
+    (without it, `y` is positively homogeneous in `x`, `y(0) = 0`); it keeps the paper's
+    `||x||_2 = 1` and its initialisation unchanged (one more column of `A`). The
+    alternative, not standardising near-constant features, would still give 0 for a
+    feature that is constant at 0 (an unvisited one-hot cell, say).
+    """
+    return unit_sphere(jnp.concatenate([x, jnp.ones_like(x[..., :1])], axis=-1))
+
+
 def project_to_ball(params: Any, center: Any, radius: float) -> Any:
     """Per-layer Frobenius-ball projection `Proj_B` of Algorithm 2.
 

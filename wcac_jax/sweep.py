@@ -40,7 +40,14 @@ import numpy as np
 from wcac_jax import envs, pareto
 from wcac_jax.config import TrainConfig
 from wcac_jax.scalarize import SCALARIZATIONS
-from wcac_jax.train import Trainer, TrainState, make_evaluate, make_trainer, resolve_j_ub
+from wcac_jax.train import (
+    Trainer,
+    TrainState,
+    make_evaluate,
+    make_trainer,
+    resolve_j_ub,
+    with_env_steps,
+)
 
 PAPER_PREFS = (
     (1.0, 0.0),
@@ -279,7 +286,8 @@ class LoadedSweep(NamedTuple):
       trainer: the pure `init`/`step`/`run`/`mean_action` of its training setup.
       state: the last checkpointed `TrainState`, every leaf with the preference axis
         first (`[P, ...]`); `state.iteration[i]` iterations are done.
-      metrics: per-iteration metrics `[P, T, ...]` (zeros past `state.iteration`).
+      metrics: per-iteration metrics `[P, T, ...]` (zeros past `state.iteration`), with
+        `train/env_steps` (int64) counted on the host from `train/iteration`.
     """
 
     config: SweepConfig
@@ -331,7 +339,8 @@ def load_sweep(out: str) -> LoadedSweep:
     restored = manager.restore(step, args=ocp.args.StandardRestore(_to_checkpoint(template)))
     restored = _from_checkpoint(restored, template)
     state = jax.tree.map(jnp.asarray, restored["state"])
-    return LoadedSweep(config, trainer, state, restored["metrics"])
+    metrics = with_env_steps(config.train_config(), restored["metrics"])
+    return LoadedSweep(config, trainer, state, metrics)
 
 
 def run_sweep(
@@ -485,6 +494,7 @@ def run_sweep(
         "wall_s": wall + compile_s,
         "steps_this_run": steps_this_run,
     }
+    metrics = with_env_steps(train_cfg, metrics)  # int64, counted on the host
     front = _front(config, env, prefs, j_ub, hv_ref, metrics, evaluation, timing)
     if out is not None:
         _write_outputs(out, front, metrics, prefs, env)

@@ -21,7 +21,9 @@ Iteration `t` uses the key `fold_in(state.key, t)`, so splitting a run into chun
 
 So each iteration costs `N * (K + L)` environment steps (`config.env_steps_per_iteration`).
 Observations are normalised with running mean/std (Brax's `running_statistics`, per
-preference) and, for the paper network, projected to the unit sphere. Actions are
+preference) and, for the paper network, given a constant bias feature and projected to
+the unit sphere (`networks.paper_input`: a feature that never varies is normalised to 0,
+and the bias-free paper network must never see an all-zero input). Actions are
 clipped to `[-1, 1]` for the environment; the score uses the unclipped sample.
 """
 
@@ -34,6 +36,7 @@ from typing import Any, NamedTuple
 import chex
 import jax
 import jax.numpy as jnp
+import numpy as np
 import optax
 from brax.envs.base import State
 from brax.training.acme import running_statistics, specs
@@ -61,8 +64,10 @@ class TrainState:
       episodes: episode bookkeeping (`[N, m]`, `[N]`).
       key: raw key data (`jax.random.key_data`) of the run's base key; iteration `t`
         uses `fold_in(key, t)`. Raw, so that states convert to numpy and checkpoint.
-      iteration: `t`, outer iterations done.
-      env_steps: environment steps taken so far (this preference).
+      iteration: `t`, outer iterations done (int32: at most `2^31 - 1`; the environment
+        steps taken so far are `t * config.env_steps_per_iteration`, counted on the host
+        by `env_steps`, since an int32 step counter would overflow at `2^31` steps and
+        JAX has no 64-bit integers by default).
     """
 
     actor: networks.NetParams
@@ -73,7 +78,6 @@ class TrainState:
     episodes: EpisodeStats
     key: chex.PRNGKey
     iteration: chex.Array
-    env_steps: chex.Array
 
 
 class Trainer(NamedTuple):
@@ -87,7 +91,8 @@ class Trainer(NamedTuple):
       step: `(state, pref [m], direction=None) -> (state, metrics)`, one iteration.
       policy: the policy (`networks.Policy`).
       value_network: the critics' network `(init, apply)`.
-      preprocess: `(obs_stats, obs [..., obs]) -> network input [..., obs]`.
+      preprocess: `(obs_stats, obs [..., obs]) -> network input [..., in]` (`in` is
+        `network_input_size`).
       mean_action: `(state, obs [..., obs]) -> action` the deterministic policy's action
         as the environment takes it (the clipped Gaussian mean; the most likely action).
       j_ub: `[m]` the utopia point in use.
@@ -121,6 +126,12 @@ def resolve_j_ub(config: TrainConfig, env) -> tuple[float, ...]:
     return tuple(float(v) for v in j_ub)
 
 
+def network_input_size(config: TrainConfig, obs_size: int) -> int:
+    """The networks' input size: the paper network also takes a bias feature
+    (`networks.paper_input`), the MLP (which has biases) the observation alone."""
+    return obs_size + 1 if config.network == "paper" else obs_size
+
+
 def make_policy(config: TrainConfig, env) -> networks.Policy:
     """The actor for `env`'s action space: a Gaussian for continuous actions in
     `[-1, 1]^act`, a softmax over `env.num_actions` for discrete ones."""
@@ -128,7 +139,7 @@ def make_policy(config: TrainConfig, env) -> networks.Policy:
     out = int(num_actions) if num_actions else int(env.action_size)
     net = networks.make_network(
         config.network,
-        int(env.observation_size),
+        network_input_size(config, int(env.observation_size)),
         out,
         config.width,
         config.depth,
@@ -160,7 +171,9 @@ def make_trainer(config: TrainConfig, env) -> Trainer:
     v_step = jax.vmap(wrapped.step)
 
     policy = make_policy(config, env)
-    value_net = networks.make_network(config.network, obs_size, 1, config.width, config.depth)
+    value_net = networks.make_network(
+        config.network, network_input_size(config, obs_size), 1, config.width, config.depth
+    )
     optimizer = actor.make_optimizer(config.actor_optimizer, config.actor_lr)
 
     def log_prob(params, obs, action):
@@ -171,7 +184,7 @@ def make_trainer(config: TrainConfig, env) -> Trainer:
         if config.normalize_obs:
             x = running_statistics.normalize(x, obs_stats)
         if config.network == "paper":
-            x = networks.unit_sphere(x)
+            x = networks.paper_input(x)
         return x
 
     def init(key: chex.PRNGKey, pref: chex.Array) -> TrainState:
@@ -193,7 +206,6 @@ def make_trainer(config: TrainConfig, env) -> Trainer:
             ),
             key=jax.random.key_data(key_run),
             iteration=jnp.zeros((), jnp.int32),
-            env_steps=jnp.zeros((), jnp.int32),
         )
 
     def env_step(actor_params, obs_stats, env_state, episodes, key):
@@ -301,8 +313,6 @@ def make_trainer(config: TrainConfig, env) -> Trainer:
         new_stats = (
             running_statistics.update(obs_stats, obs_seen) if config.normalize_obs else obs_stats
         )
-        env_steps = state.env_steps + config.env_steps_per_iteration
-
         newly_finished = jnp.sum(episodes.finished) - finished_before
         has_finished = (episodes.finished > 0).astype(jnp.float32)[:, None]
         episode_return = jnp.sum(episodes.last_return * has_finished, axis=0) / jnp.maximum(
@@ -316,7 +326,7 @@ def make_trainer(config: TrainConfig, env) -> Trainer:
             "train/g_mu": scalarize.smooth_wc(j_hat, pref, j_ub, config.mu),
             "train/episode_return": episode_return,
             "train/episodes": newly_finished,
-            "train/env_steps": env_steps,
+            "train/iteration": state.iteration + 1,
             "train/td_error": jnp.mean(td_abs, axis=0),
             "train/advantage": jnp.mean(adv, axis=0),
             "train/direction_norm": optax.tree.norm(d),
@@ -330,7 +340,6 @@ def make_trainer(config: TrainConfig, env) -> Trainer:
             env_state=env_state,
             episodes=episodes,
             iteration=state.iteration + 1,
-            env_steps=env_steps,
         )
         return new_state, metrics
 
@@ -345,6 +354,24 @@ def make_trainer(config: TrainConfig, env) -> Trainer:
         return policy.to_env(policy.mode(dist))
 
     return Trainer(init, run, iteration, policy, value_net, preprocess, mean_action, j_ub)
+
+
+def env_steps(config: TrainConfig, iterations) -> np.ndarray:
+    """Environment steps of one preference after `iterations` outer iterations, as int64
+    on the host: `iterations * config.env_steps_per_iteration`.
+
+    Args:
+      iterations: `state.iteration` or the `train/iteration` metric, any shape.
+
+    Returns:
+      int64 array of the shape of `iterations` (exact far beyond `2^31` steps).
+    """
+    return np.asarray(iterations, np.int64) * np.int64(config.env_steps_per_iteration)
+
+
+def with_env_steps(config: TrainConfig, metrics: dict) -> dict:
+    """`metrics` (host arrays) with `train/env_steps` added from `train/iteration`."""
+    return {**metrics, "train/env_steps": env_steps(config, metrics["train/iteration"])}
 
 
 def make_train(config: TrainConfig, env) -> Callable:
