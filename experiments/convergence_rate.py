@@ -18,6 +18,7 @@ from __future__ import annotations
 import argparse
 import functools
 import json
+import math
 import os
 import sys
 
@@ -41,6 +42,8 @@ BASE = TrainConfig(
     depth=1,
     critic_lr=0.1,
     normalize_obs=False,
+    critic_warm_start=True,  # as this study was run (the warm critics, no projection)
+    projection_radius=math.inf,
 )
 
 
