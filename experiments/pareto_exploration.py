@@ -4,10 +4,14 @@ whose exact Pareto front is known.
 For each direction (`smooth_wc`, `wc`, `linear`, `mgda`), trains `--n-prefs` evenly spaced
 preferences (the three scalarizations together in ONE `jit(vmap(train))` over preferences
 x directions, MGDA in its own) and reports: the number of distinct front points
-reached (more than `--distinct` apart), each point's distance to the exact front, the
+reached, each point's distance to ITS PREFERENCE'S weighted-Chebyshev optimum (the point
+the preference asks for: on the bandit every learned point is `reward(theta)` and so lies
+on the front by construction, so a distance to the front would measure nothing), the
 hypervolume relative to the exact front's, and how evenly the points cover the front (the
-largest gap between neighbouring points, measured by the angle theta that produces them,
-counting the two ends 0 and pi/2). Writes `exploration.json` and `exploration.png`.
+largest gap between neighbouring points, along the front). On Deep Sea Treasure the
+points are expected returns of stochastic policies, which can lie inside the front, so
+their distance to the front is reported too. Writes `exploration.json` and
+`exploration.png`.
 
     python experiments/pareto_exploration.py --out experiments/results/exploration
     python experiments/pareto_exploration.py --quick --out /tmp/exploration
@@ -53,6 +57,8 @@ BANDIT = TrainConfig(
     log_std_init=math.log(0.05),
     learn_log_std=False,
     normalize_obs=False,
+    critic_warm_start=True,  # 2 TD steps from W(0) per iteration cannot evaluate a policy
+    projection_radius=math.inf,
 )
 
 
@@ -73,8 +79,20 @@ DST = TrainConfig(
     critic_lr=0.02,
     actor_optimizer="adam",
     normalize_obs=False,
+    critic_warm_start=True,
+    projection_radius=math.inf,
 )
 DST_HV_REF = (0.0, -20.0)
+NEAR_FRONT = 1.0  # Deep Sea Treasure: "on the front" means within this distance of it
+
+
+def dst_wc_optimum(pref: np.ndarray, front: np.ndarray, j_ub, n: int = 100001) -> np.ndarray:
+    """The point of the segment `front` (`[2, 2]`) minimising `max_i p_i (z_i - J_i)`,
+    by dense search along it (the objective is convex and piecewise linear in the
+    position). Returns `[2]`."""
+    s = np.linspace(0.0, 1.0, n)[:, None]
+    points = front[0] + s * (front[-1] - front[0])
+    return points[np.argmin(np.max(pref * (np.asarray(j_ub) - points), axis=1))]
 
 
 def count_distinct(points: np.ndarray, min_dist: float) -> int:
@@ -84,11 +102,6 @@ def count_distinct(points: np.ndarray, min_dist: float) -> int:
         if all(np.linalg.norm(p - q) > min_dist for q in kept):
             kept.append(p)
     return len(kept)
-
-
-def distance_to_curve(points: np.ndarray, curve: np.ndarray) -> np.ndarray:
-    """Distance of each point `[n, m]` to a densely sampled curve `[k, m]`."""
-    return np.min(np.linalg.norm(points[:, None] - curve[None], axis=-1), axis=1)
 
 
 def bandit_directions(directions, prefs: np.ndarray, iterations: int, seed: int) -> dict:
@@ -180,20 +193,28 @@ def exact_front_hypervolume(front: np.ndarray, ref) -> float:
     return pareto.hypervolume(dense, ref)
 
 
-def summarise_dst(points: np.ndarray, front: np.ndarray, min_dist: float) -> dict:
-    """Distinct points, distance to the exact front, HV ratio, and the largest gap
-    between neighbouring points along the front (fraction of its length, ends included)."""
+def summarise_dst(points: np.ndarray, front: np.ndarray, targets: np.ndarray, min_dist) -> dict:
+    """Distinct points, each point's distance to the exact front and to its preference's
+    weighted-Chebyshev optimum (`targets`, `[P, 2]`), HV ratio, and the largest gap
+    between neighbouring points on the front (within `NEAR_FRONT` of it), along the
+    front (fraction of its length, ends included)."""
     ref = np.asarray(DST_HV_REF)
     finite = np.all(np.isfinite(points), axis=1)
     pts = points[finite]
     seg = front[-1] - front[0]
     along = np.clip(((pts - front[0]) @ seg) / float(seg @ seg), 0.0, 1.0)
-    near = dst_env.distance_to_front(pts, front) < 1.0  # on (or close to) the front
+    to_front = dst_env.distance_to_front(pts, front)
+    near = to_front < NEAR_FRONT
     gaps = np.diff(np.sort(np.concatenate([[0.0, 1.0], along[near]])))
+    to_target = np.linalg.norm(points - targets, axis=1)
     return {
         "distinct_points": count_distinct(pts, min_dist),
         "points_near_front": int(near.sum()),
-        "max_distance_to_front": float(dst_env.distance_to_front(pts, front).max()),
+        "distance_to_front": dst_env.distance_to_front(points, front).tolist(),
+        "max_distance_to_front": float(to_front.max()),
+        "distance_to_wc_optimum": to_target.tolist(),
+        "max_distance_to_wc_optimum": float(np.nanmax(to_target)),
+        "median_distance_to_wc_optimum": float(np.nanmedian(to_target)),
         "hypervolume": pareto.hypervolume(pts, ref),
         "hypervolume_ratio": pareto.hypervolume(pts, ref) / exact_front_hypervolume(front, ref),
         "largest_gap_along_front": float(gaps.max()),
@@ -208,12 +229,19 @@ def _result(action, weights) -> dict:
     return {"theta": theta, "points": points, "weights": np.asarray(weights)}
 
 
-def summarise(theta, points, exact, exact_hv, ref, min_dist) -> dict:
+def summarise(theta, points, target_theta, exact_hv, ref, min_dist) -> dict:
+    """Distinct points, each point's distance to its preference's weighted-Chebyshev
+    optimum (in theta and in objective space), HV ratio, largest gap in theta."""
     gaps = np.diff(np.sort(np.concatenate([[0.0, math.pi / 2], theta])))
-    dist = distance_to_curve(points, exact)
+    theta_error = np.abs(theta - target_theta)
+    target_points = np.asarray(cb.reward(jnp.asarray(target_theta)), np.float64)
+    to_target = np.linalg.norm(points - target_points, axis=1)
     return {
         "distinct_points": count_distinct(points, min_dist),
-        "max_distance_to_front": float(dist.max()),
+        "theta_error": theta_error.tolist(),
+        "max_theta_error": float(theta_error.max()),
+        "median_theta_error": float(np.median(theta_error)),
+        "max_distance_to_wc_optimum": float(to_target.max()),
         "hypervolume": pareto.hypervolume(points, ref),
         "hypervolume_ratio": pareto.hypervolume(points, ref) / exact_hv,
         "largest_theta_gap": float(gaps.max()),
@@ -250,6 +278,7 @@ def main(argv=None) -> int:
         ref = np.zeros(2)
         exact_hv = pareto.hypervolume(exact, ref)
         targets = np.asarray(jax.vmap(cb.wc_optimum, (0, None))(prefs, cb.DEFAULT_J_UB))
+        targets = targets.astype(np.float64)
         bandit = {
             "j_ub": list(cb.DEFAULT_J_UB),
             "hv_ref": ref.tolist(),
@@ -261,38 +290,42 @@ def main(argv=None) -> int:
         runs = bandit_directions(args.directions, prefs, iters, args.seed)
         for direction in args.directions:
             run = runs[direction]
-            summary = summarise(run["theta"], run["points"], exact, exact_hv, ref, 0.02)
+            summary = summarise(run["theta"], run["points"], targets, exact_hv, ref, 0.02)
             bandit["directions"][direction] = summary
             print(
                 f"concave_bandit {direction:>10}: {summary['distinct_points']:>2} distinct "
                 f"points, HV {summary['hypervolume_ratio']:.3f} of the exact front's, largest "
-                f"theta gap {summary['largest_theta_gap']:.3f} rad, max distance to front "
-                f"{summary['max_distance_to_front']:.2e}",
+                f"theta gap {summary['largest_theta_gap']:.3f} rad, |theta - wc optimum| "
+                f"median {summary['median_theta_error']:.3f}, max "
+                f"{summary['max_theta_error']:.3f} rad",
                 flush=True,
             )
         result["problems"]["concave_bandit"] = bandit
     if "deep_sea_treasure" in args.problems:
         iters = args.iterations or DST.num_iterations
         front = dst_env.exact_front(DST.gamma)
+        j_ub = dst_env.DeepSeaTreasure.default_j_ub
+        targets = np.stack([dst_wc_optimum(p, front, j_ub) for p in prefs])
         dst = {
             "j_ub": list(dst_env.DeepSeaTreasure.default_j_ub),
             "hv_ref": list(DST_HV_REF),
             "exact_front": front.tolist(),
             "exact_front_hypervolume": exact_front_hypervolume(front, np.asarray(DST_HV_REF)),
             "treasure_path_returns": dst_env.path_returns(DST.gamma).tolist(),
+            "wc_optimum": targets.tolist(),
             "config": DST.replace(num_iterations=iters).to_dict(),
             "directions": {},
         }
         runs = dst_directions(args.directions, prefs, iters, args.seed)
         for direction in args.directions:
-            summary = summarise_dst(runs[direction], front, 1.0)
+            summary = summarise_dst(runs[direction], front, targets, 1.0)
             dst["directions"][direction] = summary
             print(
                 f"deep_sea_treasure {direction:>10}: {summary['distinct_points']:>2} distinct "
                 f"points ({summary['points_near_front']} within 1 of the front), HV "
                 f"{summary['hypervolume_ratio']:.3f} of the exact front's, largest gap along "
-                f"the front {summary['largest_gap_along_front']:.2f}, max distance "
-                f"{summary['max_distance_to_front']:.2f}",
+                f"the front {summary['largest_gap_along_front']:.2f}, distance to the wc "
+                f"optimum median {summary['median_distance_to_wc_optimum']:.2f}",
                 flush=True,
             )
         result["problems"]["deep_sea_treasure"] = dst

@@ -12,6 +12,7 @@ import pytest
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(ROOT, "experiments"))
 
+import pareto_exploration  # noqa: E402
 import walker2d_ablation  # noqa: E402
 import walker2d_common  # noqa: E402
 
@@ -105,7 +106,8 @@ def test_pareto_exploration_quick_writes_its_schema(tmp_path):
     for summary in bandit["directions"].values():
         for key in (
             "distinct_points",
-            "max_distance_to_front",
+            "max_theta_error",
+            "max_distance_to_wc_optimum",
             "hypervolume_ratio",
             "largest_theta_gap",
             "theta",
@@ -118,6 +120,7 @@ def test_pareto_exploration_quick_writes_its_schema(tmp_path):
             "distinct_points",
             "points_near_front",
             "max_distance_to_front",
+            "max_distance_to_wc_optimum",
             "hypervolume_ratio",
             "largest_gap_along_front",
             "points",
@@ -125,6 +128,35 @@ def test_pareto_exploration_quick_writes_its_schema(tmp_path):
             assert key in summary, key
         assert len(summary["points"]) == 3
     assert (tmp_path / "exploration.png").stat().st_size > 1000
+
+
+@pytest.mark.parametrize(
+    "pref,expected",
+    [
+        ([1.0, 0.0], [10.0, -10.0]),  # only the first objective counts: its best end
+        ([0.0, 1.0], [0.0, 0.0]),
+        ([0.5, 0.5], [5.0, -5.0]),  # max(10 - 10 s, 10 s) is least at s = 0.5
+        ([0.2, 0.8], [2.0, -2.0]),  # 0.2 (10 - 10 s) = 0.8 (10 s) at s = 0.2
+    ],
+)
+def test_exploration_weighted_chebyshev_optimum_on_a_segment(pref, expected):
+    front = np.array([[0.0, 0.0], [10.0, -10.0]])
+    got = pareto_exploration.dst_wc_optimum(np.array(pref), front, (10.0, 0.0))
+    np.testing.assert_allclose(got, expected, atol=1e-3)
+
+
+def test_exploration_bandit_summary_measures_the_distance_to_each_target():
+    """Points are on the front by construction; what can be wrong is WHERE on it."""
+    target = np.array([0.2, 0.7, 1.2])
+    theta = target + np.array([0.0, 0.1, -0.3])
+    points = np.stack([1 - np.sin(theta), 1 - np.cos(theta)], axis=1)
+    out = pareto_exploration.summarise(theta, points, target, 1.0, np.zeros(2), 0.02)
+    np.testing.assert_allclose(out["theta_error"], [0.0, 0.1, 0.3], atol=1e-6)
+    assert out["max_theta_error"] == pytest.approx(0.3, abs=1e-6)
+    t, th = target[2], theta[2]
+    chord = np.hypot(np.sin(t) - np.sin(th), np.cos(t) - np.cos(th))  # 2 sin(0.15)
+    assert out["max_distance_to_wc_optimum"] == pytest.approx(chord, rel=1e-5)
+    assert chord == pytest.approx(2 * np.sin(0.15), rel=1e-9)
 
 
 def test_convergence_rate_quick_writes_its_schema(tmp_path):
@@ -177,6 +209,10 @@ def test_named_configs_keep_the_paper_setting_apart():
         2,
     )
     assert (paper.actor_lr, paper.critic_lr, paper.gamma, paper.mu) == (3e-4, 1e-3, 0.99, 0.05)
+    # Algorithm 2: cold restart from W(0) and a finite projection; paper-warm is the rest
+    assert (paper.critic_warm_start, paper.projection_radius) == (False, 1.0)
+    warm = walker2d_common.CONFIGS["paper-warm"]
+    assert warm == paper.replace(critic_warm_start=True, projection_radius=float("inf"))
     assert walker2d_common.steps_per_pref(0.2, None) == 200_000
     assert walker2d_common.steps_per_pref(1.0, 123) == 123
     assert walker2d_common.train_config("paper", width=None, depth=1).depth == 1
