@@ -198,7 +198,19 @@ BAD = [
     (["--env", "atari"], "'atari'; valid: concave_bandit, .*walker2d"),
     (["--physics", "bullet"], "'physics'"),
     (["--scalarization", "max"], "'max'"),
-    (["--steps-per-pref", "0"], "--steps-per-pref"),
+    (["--steps-per-pref", "0"], "steps_per_pref must be a positive integer, got 0"),
+    (["--eval-episodes", "0"], "eval_episodes must be a positive integer, got 0"),
+    (["--hv-ref", "nan,nan"], r"hv_ref must be finite, got \[nan, nan\]"),
+    (["--hv-ref", "1,2,3"], r"hv_ref \[1.0, 2.0, 3.0\] has 3 entries"),
+    (["--seed", "1180591620717411303424"], "seed .*got 1180591620717411303424"),
+    # more iterations than the int32 counter holds
+    (["--steps-per-pref", "10000000000000"], "steps_per_pref 10000000000000 needs"),
+    # fewer iterations than that, but more metrics than the machine's memory
+    (["--steps-per-pref", "100000000000"], "steps_per_pref 100000000000 needs .* GiB"),
+    (["--mu", "inf"], "mu must be finite in float32 .*got inf"),
+    (["--actor-lr", "inf"], "actor_lr must be finite in float32 .*got inf"),
+    (["--critic-lr", "nan"], "critic_lr must be > 0, got nan"),
+    (["--j-ub", "1e39,1"], r"j_ub must be finite in float32 .*got \[1e\+39, 1.0\]"),
 ]
 
 
@@ -211,6 +223,45 @@ def test_bad_input_exits_2_and_writes_nothing(args, message, tmp_path, capsys):
     assert len(err.strip().splitlines()) == 1 and err.startswith("error: ")
     assert __import__("re").search(message, err), err
     assert not out.exists()
+
+
+def _tree(path):
+    """Every file under `path` with its size and modification time."""
+    out = {}
+    for root, _, files in os.walk(path):
+        for name in files:
+            st = os.stat(os.path.join(root, name))
+            out[os.path.relpath(os.path.join(root, name), path)] = (st.st_size, st.st_mtime_ns)
+    return out
+
+
+def test_resume_into_a_read_only_directory_exits_2(tiny_run, capsys, monkeypatch):
+    # running as root, chmod cannot make a directory unwritable: os.access reports it
+    real_access = os.access
+    monkeypatch.setattr(
+        sweep.os,
+        "access",
+        lambda path, mode: False if os.path.abspath(path) == tiny_run else real_access(path, mode),
+    )
+    before = _tree(tiny_run)
+    rc = sweep.main([*TINY, "--n-prefs", "4", "--chunks", "3", "--out", tiny_run, "--resume"])
+    err = capsys.readouterr().err
+    assert rc == 2 and len(err.strip().splitlines()) == 1, err
+    assert f"{tiny_run!r} is not writable" in err
+    assert _tree(tiny_run) == before
+
+
+@pytest.mark.parametrize("text", ["{not json", "[1, 2]"])
+def test_resume_with_a_corrupt_config_exits_2(tmp_path, capsys, text):
+    out = tmp_path / "run"
+    out.mkdir()
+    (out / "config.json").write_text(text)
+    before = _tree(out)
+    rc = sweep.main([*TINY, "--n-prefs", "2", "--out", str(out), "--resume"])
+    err = capsys.readouterr().err
+    assert rc == 2 and len(err.strip().splitlines()) == 1, err
+    assert "config.json" in err and ("not readable JSON" in err or "no sweep config" in err)
+    assert _tree(out) == before
 
 
 def test_unwritable_out_exits_2(tmp_path, capsys):

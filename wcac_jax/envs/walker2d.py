@@ -121,6 +121,11 @@ class Walker2d(PipelineEnv):
             ls_iterations = 4 if ls_iterations is None else ls_iterations
         self.physics = physics
         self.episode_length = episode_length
+        # hypervolume reference, per objective a floor per step times the time limit:
+        # control -6 (its least reward: sum a^2 <= 6, healthy reward >= 0); forward -1
+        # (x_velocity + healthy has no physical floor: -1 is walking backwards at 2 m/s
+        # for the whole episode, far below any policy's return so far)
+        self.default_hv_ref = (-1.0 * episode_length, -6.0 * episode_length)
         self._noise = float(reset_noise_scale)
         mj_model = load_mj_model(physics, solver_iterations, ls_iterations)
         data = mujoco.MjData(mj_model)
