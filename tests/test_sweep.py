@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from sweep_args import TINY_BANDIT
 
-from wcac_jax import sweep
+from wcac_jax import pareto, sweep
 
 TINY = [*TINY_BANDIT, "--quiet"]
 # slow enough (about a second per chunk) that a SIGKILL lands between chunks
@@ -83,7 +83,22 @@ def test_outputs_exist_parse_and_agree(tiny_run):
         np.testing.assert_allclose(row["j_hat"], curves["train/j_hat"][i, -1], rtol=1e-6)
         assert len(row["return"]) == len(row["discounted_return"]) == 2
     assert front["env_steps_per_pref"] == int(curves["train/env_steps"][0, -1])
-    assert front["hypervolume"] >= 0 and front["hv_ref"] == [0.0, 0.0]
+    # the metrics, recomputed from the saved returns by independent code (pymoo's HV,
+    # brute-force dominance)
+    assert front["hv_ref"] == [0.0, 0.0]  # the bandit's default_hv_ref
+    returns = np.array([row["return"] for row in front["prefs"]])
+    ref = np.array(front["hv_ref"])
+    inside = np.all(returns > ref, axis=1)
+    from pymoo.indicators.hv import HV
+
+    expected_hv = HV(ref_point=-ref)(-returns[inside]) if inside.any() else 0.0
+    assert front["hypervolume"] == pytest.approx(expected_hv, rel=1e-9)
+    assert front["outside_hv_ref"] == np.flatnonzero(~inside).tolist()
+    for i, (row, p) in enumerate(zip(front["prefs"], returns, strict=True)):
+        dominated = any(np.all(q >= p) and np.any(q > p) for q in returns)
+        duplicate = any(np.array_equal(returns[j], p) for j in range(i))
+        assert row["nondominated"] == (not dominated and not duplicate), i
+        assert row["inside_hv_ref"] == bool(inside[i])
     lines = open(os.path.join(tiny_run, "front.csv")).read().strip().splitlines()
     assert len(lines) == 5 and lines[0].startswith("pref_one_minus_sin")
     with open(os.path.join(tiny_run, "config.json")) as f:
@@ -183,6 +198,26 @@ def test_two_devices_match_one(tiny_run, tmp_path):
         [r["return"] for r in front1["prefs"]],
         rtol=1e-5,
     )
+
+
+def test_default_hv_ref_of_every_environment():
+    from wcac_jax import envs
+
+    for name in envs.names():
+        env = envs.make(name)
+        assert len(sweep.default_hv_ref(env)) == env.num_objectives, name
+    assert sweep.default_hv_ref(envs.make("concave_bandit")) == (0.0, 0.0)
+    # walker2d: per step -1 forward and -6 control (its least reward), times the limit
+    assert sweep.default_hv_ref(envs.make("walker2d", episode_length=100)) == (-100.0, -600.0)
+    # Deep Sea Treasure: no treasure, every step of the limit spent; its time objective
+    # is negative, so the old (0, 0) gave every front a hypervolume of 0
+    dst = envs.make("deep_sea_treasure", episode_length=100)
+    ref = sweep.default_hv_ref(dst)
+    assert ref == (0.0, -100.0)
+    # treasure 1 one step down, treasure 124 after 19 steps: 124 * 81 + 1 * 18
+    pts = [[1.0, -1.0], [124.0, -19.0]]
+    assert pareto.hypervolume(pts, ref) == pytest.approx(124 * 81 + 18)
+    assert not pareto.outside_reference(pts, ref).any()
 
 
 BAD = [
