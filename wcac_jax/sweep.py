@@ -747,7 +747,12 @@ def build_parser() -> argparse.ArgumentParser:
         default=d.actor_optimizer,
         help="normalized, normalized_harmonic, adam or sgd",
     )
-    p.add_argument("--hv-ref", default=None, help="hypervolume reference point, e.g. '-100,-100'")
+    p.add_argument(
+        "--hv-ref",
+        default=None,
+        help="hypervolume reference point, e.g. '-500,-3000' (default: the environment's "
+        "default_hv_ref, per objective the least return an episode can have)",
+    )
     p.add_argument(
         "--eval-episodes", type=int, default=8, help="evaluation episodes per preference"
     )
