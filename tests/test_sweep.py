@@ -144,6 +144,9 @@ def test_load_sweep_restores_the_trained_state(tiny_run, tmp_path):
     assert all(np.isfinite(np.asarray(v)).all() for v in metrics.values())
     with pytest.raises(sweep.SweepError, match="no sweep in"):
         sweep.load_sweep(str(tmp_path))
+    (tmp_path / "config.json").write_text("{not json")
+    with pytest.raises(sweep.SweepError, match="no readable sweep config"):
+        sweep.load_sweep(str(tmp_path))
 
 
 @pytest.mark.slow

@@ -351,8 +351,11 @@ def load_sweep(out: str) -> LoadedSweep:
     path = os.path.join(out, "config.json")
     if not os.path.isfile(path):
         raise SweepError(f"no sweep in {out!r} (no config.json)")
-    with open(path) as f:
-        config = SweepConfig.from_dict(json.load(f))
+    try:
+        with open(path) as f:
+            config = SweepConfig.from_dict(json.load(f))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError, KeyError, TypeError) as err:
+        raise SweepError(f"{path!r} holds no readable sweep config ({err!r})") from None
     import orbax.checkpoint as ocp
 
     manager = ocp.CheckpointManager(os.path.abspath(os.path.join(out, "checkpoint")))
