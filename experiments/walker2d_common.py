@@ -116,7 +116,7 @@ def sweep(config: SweepConfig, out: str, chunks: int, resume: bool = False) -> d
         if resume and os.path.isfile(front_path):
             check_output_dir(out, config, resume=True)  # the same sweep, or an error
             with open(front_path) as f:
-                return json.load(f)
+                return rescore_front(json.load(f))  # a front written before today's metrics
         return run_sweep(config, out, chunks=chunks, resume=resume and started)
     except SweepError as err:
         fail(err, 2)

@@ -190,7 +190,11 @@ def main(argv=None) -> int:
         wall = time.perf_counter() - t0
         res = {**direction_summary(front), "wall_s": wall}
         summary["directions"][direction] = res
-        print(f"[walker2d_front] {direction}: HV {front['hypervolume']:.4g}, {wall:.0f} s")
+        outside = [front["prefs"][i]["pref"] for i in front["outside_hv_ref"]]
+        print(
+            f"[walker2d_front] {direction}: HV {front['hypervolume']:,.0f} (ref "
+            f"{front['hv_ref']}; outside the box: {outside or 'none'}), {wall:.0f} s"
+        )
         for pol in res["policies"]:
             speed, ctrl = pol["mean_speed_m_per_s"], pol["mean_control_per_step"]
             print(
