@@ -69,6 +69,36 @@ def write_figure(out: str, result: dict, fixed_width: int, fixed_depth: int) -> 
     plot.plt.close(fig)
 
 
+def evaluation_summary(front: dict) -> dict:
+    """What `ablation.json` records of a size's evaluated policies (its `front.json`)."""
+    episode_length, episodes = common.evaluation_setup(front)
+    policies = [common.policy_summary(row, episode_length, episodes) for row in front["prefs"]]
+    eval_fwd = np.array([pol["forward_return"] for pol in policies])
+    return {
+        "eval_forward_return": eval_fwd.tolist(),
+        "eval_forward_mean": float(eval_fwd.mean()),
+        "eval_forward_std": float(eval_fwd.std(ddof=1)) if len(eval_fwd) > 1 else 0.0,
+        "eval_control_return": [pol["control_return"] for pol in policies],
+        "eval_episode_length": [pol["episode_length"] for pol in policies],
+        "eval_falls_per_episode": [pol["falls_per_episode"] for pol in policies],
+        "eval_speed_m_per_s": [pol["mean_speed_m_per_s"] for pol in policies],
+        "eval_control_per_step": [pol["mean_control_per_step"] for pol in policies],
+    }
+
+
+def resummarize(out: str) -> None:
+    """Recomputes the evaluation fields of a finished `out`'s `ablation.json` from the
+    returns its sweeps saved (curves and timings kept)."""
+    path = os.path.join(out, "ablation.json")
+    with open(path) as f:
+        result = json.load(f)
+    for size in result["sizes"]:
+        with open(os.path.join(out, size["name"], "front.json")) as f:
+            size.update(evaluation_summary(json.load(f)))
+    with open(path, "w") as f:
+        json.dump(result, f, indent=2)
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     common.add_run_args(p, out="runs/walker2d_ablation")
@@ -77,7 +107,18 @@ def main(argv=None) -> int:
     p.add_argument("--widths", type=int, nargs="+", default=[64, 128, 256])
     p.add_argument("--fixed-width", type=int, default=256, help="width of the depth sweep")
     p.add_argument("--fixed-depth", type=int, default=2, help="depth of the width sweep")
+    p.add_argument(
+        "--resummarize",
+        action="store_true",
+        help="recompute the evaluation fields of a finished --out from its saved returns",
+    )
     args = p.parse_args(argv)
+    if args.resummarize:
+        if not os.path.isfile(os.path.join(args.out, "ablation.json")):
+            common.fail(f"--resummarize: no ablation.json in --out {args.out!r}")
+        resummarize(args.out)
+        print(f"recomputed the evaluation fields in {args.out}")
+        return 0
     if args.plot_only:
         with open(os.path.join(args.out, "ablation.json")) as f:
             result = json.load(f)
@@ -126,20 +167,12 @@ def main(argv=None) -> int:
         fwd = curves["train/episode_return"][..., 0]  # [seeds, T]
         smoothed = np.stack([plot.moving_average(y, window) for y in fwd])
         tail = max(1, fwd.shape[1] // 20)  # the last 5% of iterations
-        policies = [common.policy_summary(row) for row in front["prefs"]]
-        eval_fwd = np.array([pol["forward_return"] for pol in policies])
-        eval_ctl = np.array([pol["control_return"] for pol in policies])
         result["sizes"].append(
             {
                 "name": name,
                 "depth": depth,
                 "width": width,
-                "eval_forward_return": eval_fwd.tolist(),
-                "eval_forward_mean": float(eval_fwd.mean()),
-                "eval_forward_std": float(eval_fwd.std(ddof=1)) if len(eval_fwd) > 1 else 0.0,
-                "eval_control_return": eval_ctl.tolist(),
-                "eval_episode_length": [pol["episode_length"] for pol in policies],
-                "eval_speed_m_per_s": [pol["mean_speed_m_per_s"] for pol in policies],
+                **evaluation_summary(front),
                 "train_forward_final": fwd[:, -tail:].mean(axis=1).tolist(),
                 "curve_steps": curves["train/env_steps"][0, -smoothed.shape[1] :].tolist(),
                 "curve_forward_mean": smoothed.mean(axis=0).tolist(),

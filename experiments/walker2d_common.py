@@ -9,6 +9,7 @@ silently tuned: the scripts record the name and the full config with the results
 from __future__ import annotations
 
 import argparse
+import inspect
 import json
 import math
 import os
@@ -17,12 +18,14 @@ import sys
 import jax
 import numpy as np
 
+from wcac_jax import envs, pareto
 from wcac_jax.config import TrainConfig
 from wcac_jax.sweep import (
     SweepConfig,
     SweepError,
     TrainingDiverged,
     check_output_dir,
+    default_hv_ref,
     run_sweep,
 )
 
@@ -124,7 +127,7 @@ def sweep(config: SweepConfig, out: str, chunks: int, resume: bool = False) -> d
         if resume and os.path.isfile(front_path):
             check_output_dir(out, config, resume=True)  # the same sweep, or an error
             with open(front_path) as f:
-                return json.load(f)
+                return rescore_front(json.load(f))  # a front written before today's metrics
         return run_sweep(config, out, chunks=chunks, resume=resume and started)
     except SweepError as err:
         fail(err, 2)
@@ -132,25 +135,113 @@ def sweep(config: SweepConfig, out: str, chunks: int, resume: bool = False) -> d
         fail(err, 3)
 
 
-def policy_summary(row: dict) -> dict:
+def falls_per_episode(mean_length: float, episode_length: int, episodes: int) -> float | None:
+    """The fraction of `episodes` evaluated episodes that ended by a fall, when their mean
+    length determines it, else `None`.
+
+    An episode ends by a fall (length `1..episode_length`) or at the time limit (length
+    `episode_length`), so `s` survivors need `s * episode_length + (episodes - s) <=
+    episodes * mean_length`: when that rules out even one survivor, every episode fell.
+    Otherwise (some episode may have reached the limit, or fallen on its last step) the
+    mean length cannot tell, and the answer is `None`.
+    """
+    total = round(episodes * mean_length)  # the sum of the integer lengths
+    if episode_length > 1 and total - episodes < episode_length - 1:
+        return 1.0
+    return None
+
+
+def policy_summary(row: dict, episode_length: int, episodes: int) -> dict:
     """Forward speed and control effort of one evaluated policy (a `front.json` row).
 
-    The walker's objectives are `[x_velocity, -sum(a^2)] + healthy_reward` per step with
-    `healthy_reward = 1` on every step but a falling one, so over an episode of length
-    `L` the mean forward speed is `(R_0 - L) / L` m/s and the mean control energy per
-    step `(L - R_1) / L`, each exact up to the one unpaid healthy reward of a fall
-    (at most `1 / L`).
+    The walker's reward per step is `[x_velocity, -sum(a^2)] + healthy` with `healthy = 1`
+    on every step but a falling one (0), so over `episodes` episodes of mean length `L`
+    with a fraction `f` of them ending by a fall, the mean healthy steps per episode are
+    `H = L - f`, and per evaluated step the mean forward speed is `(R_0 - H) / L` m/s and
+    the mean control energy `sum(a^2)` is `(H - R_1) / L` (at most 6). `f` comes from the
+    episode lengths (`falls_per_episode`); when they leave it open, both are `None` and
+    `*_range` gives their bounds over the possible `f`.
+
+    Args:
+      row: a `front.json` preference row (`pref`, `return` [2], `episode_length`).
+      episode_length: the evaluation's time limit.
+      episodes: evaluated episodes behind the row's means.
     """
-    length = max(float(row["episode_length"]), 1.0)
+    length = float(row["episode_length"])
     forward, control = (float(v) for v in row["return"])
-    return {
+    out = {
         "pref": row["pref"],
         "forward_return": forward,
         "control_return": control,
         "episode_length": length,
-        "mean_speed_m_per_s": (forward - length) / length,
-        "mean_control_per_step": (length - control) / length,
     }
+    fell = falls_per_episode(length, episode_length, episodes)
+    out["falls_per_episode"] = fell
+    if fell is not None:
+        out["mean_speed_m_per_s"] = (forward - (length - fell)) / length
+        out["mean_control_per_step"] = (length - fell - control) / length
+    else:
+        # survivors s <= (n L - n) / (T - 1), so f >= 1 - s_max / n
+        s_max = (episodes * length - episodes) // max(episode_length - 1, 1)
+        lo = max(0.0, 1.0 - s_max / episodes)
+        out["mean_speed_m_per_s"] = out["mean_control_per_step"] = None
+        out["mean_speed_m_per_s_range"] = [(forward - length + f) / length for f in (lo, 1.0)]
+        out["mean_control_per_step_range"] = [(length - f - control) / length for f in (1.0, lo)]
+    return out
+
+
+# The hypervolume's sensitivity to its reference point, shown beside the default
+# (`Walker2d.default_hv_ref`, (-T, -6T) on undiscounted T-step returns): morl-baselines'
+# (-100, -100), which it applies to discounted returns, and (-100, -300).
+HV_REFS_SHOWN = ((-100.0, -100.0), (-100.0, -300.0))
+
+
+def evaluation_setup(front: dict) -> tuple[int, int]:
+    """`(episode_length, episodes)` of a Walker2d sweep's evaluation, from its config."""
+    from wcac_jax.envs.walker2d import Walker2d
+
+    options = front["config"]["env_options"]
+    default = inspect.signature(Walker2d).parameters["episode_length"].default
+    return int(options.get("episode_length", default)), int(front["config"]["eval_episodes"])
+
+
+def hv_refs(front: dict) -> list[tuple[float, ...]]:
+    """The environment's default reference point of `front`, then `HV_REFS_SHOWN`."""
+    env = envs.make(front["config"]["env"], **front["config"]["env_options"])
+    refs = [tuple(float(v) for v in default_hv_ref(env))]
+    return refs + [r for r in HV_REFS_SHOWN if r not in refs]
+
+
+def rescore_front(front: dict) -> dict:
+    """`front` with its hypervolume fields recomputed under the environment's default
+    reference point (as `run_sweep` writes them today), from its saved returns."""
+    front = dict(front)
+    ref = hv_refs(front)[0] if front["config"].get("hv_ref") is None else front["config"]["hv_ref"]
+    returns = np.array([row["return"] for row in front["prefs"]])
+    disc = np.array([row["discounted_return"] for row in front["prefs"]])
+    outside = pareto.outside_reference(returns, ref)
+    front["prefs"] = [
+        {**row, "inside_hv_ref": not bool(out)}
+        for row, out in zip(front["prefs"], outside, strict=True)
+    ]
+    front["hypervolume"] = pareto.hypervolume(returns, ref)
+    front["hypervolume_discounted"] = pareto.hypervolume(disc, ref)
+    front["hv_ref"] = list(ref)
+    front["outside_hv_ref"] = np.flatnonzero(outside).tolist()
+    return front
+
+
+def hypervolume_table(points, refs) -> list[dict]:
+    """Per reference point: the hypervolume of `points` `[n, 2]` and the indices of the
+    points outside its box (they count for nothing)."""
+    return [
+        {
+            "hv_ref": list(ref),
+            "hypervolume": pareto.hypervolume(points, ref),
+            "outside": np.flatnonzero(pareto.outside_reference(points, ref)).tolist(),
+        }
+        for ref in refs
+    ]
 
 
 def rank_correlation(x, y) -> float:

@@ -33,12 +33,20 @@ matplotlib.use("Agg")
 import numpy as np  # noqa: E402
 import walker2d_common as common  # noqa: E402
 
-from wcac_jax import plot  # noqa: E402
+from wcac_jax import pareto, plot  # noqa: E402
 from wcac_jax.sweep import PAPER_PREFS, SweepConfig  # noqa: E402
+
+HV_REF_RULE = (
+    "hypervolume of the undiscounted evaluated returns; reference point per objective a "
+    "floor per step times the time limit T: -6 on control (its least reward), -1 on "
+    "forward (no physical floor; walking backwards at 2 m/s all episode), so (-T, -6T); "
+    "hypervolume_by_ref shows other reference points and the policies outside each box"
+)
 
 
 def write_figures(out: str, summary: dict) -> None:
-    """`front.png` and `curves.png` from the sweeps saved in `out/<direction>/`."""
+    """`front.png` and, when the curves were kept, `curves.png` from the sweeps saved in
+    `out/<direction>/`."""
     directions = list(summary["directions"])
     runs = [os.path.join(out, d) for d in directions]
     fig = plot.plot_front(runs, labels=directions)
@@ -48,11 +56,76 @@ def write_figures(out: str, summary: dict) -> None:
     )
     fig.savefig(os.path.join(out, "front.png"), dpi=120)
     plot.plt.close(fig)
+    if not os.path.isfile(os.path.join(runs[0], "curves.npz")):
+        return
     fig = plot.plot_curves(runs[0], smooth=summary["smoothing_iterations"])
     fig.suptitle(f"{directions[0]}: training episode returns (smoothed over ~500 steps)")
     fig.tight_layout()
     fig.savefig(os.path.join(out, "curves.png"), dpi=110)
     plot.plt.close(fig)
+
+
+def direction_summary(front: dict) -> dict:
+    """What `summary.json` records of one direction's sweep (its `front.json`)."""
+    episode_length, episodes = common.evaluation_setup(front)
+    policies = [common.policy_summary(row, episode_length, episodes) for row in front["prefs"]]
+    forward = [pol["forward_return"] for pol in policies]
+    points = np.array([row["return"] for row in front["prefs"]])
+    return {
+        "hypervolume": front["hypervolume"],
+        "hv_ref": front["hv_ref"],
+        "outside_hv_ref": front["outside_hv_ref"],
+        "hypervolume_by_ref": common.hypervolume_table(points, common.hv_refs(front)),
+        "cardinality": front["cardinality"],
+        "distinct_points": int(len(np.unique(np.round(forward, 3)))),
+        "pref0_forward_rank_correlation": common.rank_correlation(
+            [pol["pref"][0] for pol in policies], forward
+        ),
+        "policies": policies,
+        "lambda": [row["lambda"] for row in front["prefs"]],
+        "env_steps_per_s": front["env_steps_per_s"],
+        "compile_s": front["compile_s"],
+    }
+
+
+def union_nondominated(summary: dict) -> dict:
+    """Per direction, how many of its policies are non-dominated in the union of all
+    directions' policies."""
+    points, owner = [], []
+    for direction, res in summary["directions"].items():
+        for pol in res["policies"]:
+            points.append([pol["forward_return"], pol["control_return"]])
+            owner.append(direction)
+    nd = pareto.nondominated(np.array(points))
+    return {
+        d: int(sum(f for f, o in zip(nd, owner, strict=True) if o == d))
+        for d in summary["directions"]
+    }
+
+
+def finish(out: str, summary: dict) -> None:
+    """Adds the cross-direction comparison, writes `summary.json` and the figures."""
+    summary["hv_ref_rule"] = HV_REF_RULE
+    summary["union_nondominated"] = union_nondominated(summary)
+    write_figures(out, summary)
+    with open(os.path.join(out, "summary.json"), "w") as f:
+        json.dump(summary, f, indent=2)
+
+
+def resummarize(out: str) -> None:
+    """Recomputes every metric of a finished `out` from the returns its sweeps saved:
+    each `front.json`'s hypervolume fields (the environment's default reference point)
+    and `summary.json` (timings kept); redraws the figures."""
+    with open(os.path.join(out, "summary.json")) as f:
+        summary = json.load(f)
+    for direction, old in summary["directions"].items():
+        path = os.path.join(out, direction, "front.json")
+        with open(path) as f:
+            front = common.rescore_front(json.load(f))
+        with open(path, "w") as f:
+            f.write(json.dumps(front, indent=2) + "\n")  # as run_sweep writes it
+        summary["directions"][direction] = {**direction_summary(front), "wall_s": old["wall_s"]}
+    finish(out, summary)
 
 
 def main(argv=None) -> int:
@@ -61,6 +134,11 @@ def main(argv=None) -> int:
     p.add_argument("--directions", nargs="+", default=["smooth_wc", "linear"])
     p.add_argument("--width", type=int, default=None, help="(default: the config's)")
     p.add_argument("--depth", type=int, default=None, help="(default: the config's)")
+    p.add_argument(
+        "--resummarize",
+        action="store_true",
+        help="recompute the metrics of a finished --out from its saved returns, no training",
+    )
     args = p.parse_args(argv)
     if args.plot_only:
         with open(os.path.join(args.out, "summary.json")) as f:
@@ -70,6 +148,12 @@ def main(argv=None) -> int:
             common.fail(f"{curves!r} is missing (committed results omit the curves; rerun)")
         write_figures(args.out, summary)
         print(f"redrew the figures in {args.out}")
+        return 0
+    if args.resummarize:
+        if not os.path.isfile(os.path.join(args.out, "summary.json")):
+            common.fail(f"--resummarize: no summary.json in --out {args.out!r}")
+        resummarize(args.out)
+        print(f"recomputed the metrics in {args.out}")
         return 0
 
     base = common.train_config(
@@ -104,34 +188,26 @@ def main(argv=None) -> int:
         t0 = time.perf_counter()
         front = common.sweep(config, run_dir, args.chunks, args.resume)
         wall = time.perf_counter() - t0
-        policies = [common.policy_summary(row) for row in front["prefs"]]
-        forward = [pol["forward_return"] for pol in policies]
-        summary["directions"][direction] = {
-            "hypervolume": front["hypervolume"],
-            "hv_ref": front["hv_ref"],
-            "cardinality": front["cardinality"],
-            "distinct_points": int(len(np.unique(np.round(forward, 3)))),
-            "pref0_forward_rank_correlation": common.rank_correlation(
-                [pol["pref"][0] for pol in policies], forward
-            ),
-            "policies": policies,
-            "lambda": [row["lambda"] for row in front["prefs"]],
-            "env_steps_per_s": front["env_steps_per_s"],
-            "compile_s": front["compile_s"],
-            "wall_s": wall,
-        }
-        print(f"[walker2d_front] {direction}: HV {front['hypervolume']:.4g}, {wall:.0f} s")
-        for pol in policies:
+        res = {**direction_summary(front), "wall_s": wall}
+        summary["directions"][direction] = res
+        outside = [front["prefs"][i]["pref"] for i in front["outside_hv_ref"]]
+        print(
+            f"[walker2d_front] {direction}: HV {front['hypervolume']:,.0f} (ref "
+            f"{front['hv_ref']}; outside the box: {outside or 'none'}), {wall:.0f} s"
+        )
+        for pol in res["policies"]:
+            speed, ctrl = pol["mean_speed_m_per_s"], pol["mean_control_per_step"]
             print(
                 f"  p={pol['pref']}: returns ({pol['forward_return']:8.1f}, "
                 f"{pol['control_return']:8.1f}), length {pol['episode_length']:5.1f}, "
-                f"speed {pol['mean_speed_m_per_s']:+.3f} m/s, "
-                f"control {pol['mean_control_per_step']:.3f}/step"
+                + (
+                    "speed, control per step: falls unknown"
+                    if speed is None
+                    else f"speed {speed:+.3f} m/s, control {ctrl:.3f}/step"
+                )
             )
 
-    write_figures(args.out, summary)
-    with open(os.path.join(args.out, "summary.json"), "w") as f:
-        json.dump(summary, f, indent=2)
+    finish(args.out, summary)
     print(f"wrote {args.out}")
     return 0
 

@@ -181,13 +181,67 @@ def test_convergence_rate_quick_writes_its_schema(tmp_path):
 
 
 def test_walker2d_policy_summary_by_hand():
-    # 500 steps, forward return 600 = 100 (speed 0.2 m/s x 500) + 500 healthy;
-    # control return 400 = -100 (0.2 per step x 500) + 500 healthy
-    row = {"pref": [0.9, 0.1], "return": [600.0, 400.0], "episode_length": 500.0}
-    s = walker2d_common.policy_summary(row)
-    assert s["mean_speed_m_per_s"] == pytest.approx(0.2)
-    assert s["mean_control_per_step"] == pytest.approx(0.2)
-    assert s["forward_return"] == 600.0 and s["pref"] == [0.9, 0.1]
+    # 8 episodes that all fall on their 10th step, each step x_velocity 0.5 and every
+    # torque saturated (sum a^2 = 6); healthy reward 1 on the first 9 steps, 0 on the fall:
+    # forward return 10 * 0.5 + 9 = 14, control return -60 + 9 = -51
+    row = {"pref": [0.9, 0.1], "return": [14.0, -51.0], "episode_length": 10.0}
+    s = walker2d_common.policy_summary(row, episode_length=500, episodes=8)
+    assert s["falls_per_episode"] == 1.0
+    assert s["mean_speed_m_per_s"] == pytest.approx(0.5)
+    assert s["mean_control_per_step"] == pytest.approx(6.0)  # (L - 1 - R) / L, not 6.1
+    assert s["forward_return"] == 14.0 and s["pref"] == [0.9, 0.1]
+    # lengths 5 and 15 (mean 10) over 2 episodes: both fell, 2 unpaid healthy rewards
+    # in 20 steps; control 6 per step: return (-120 + 18) / 2 = -51 per episode
+    s = walker2d_common.policy_summary(
+        {"pref": [1, 0], "return": [14.0, -51.0], "episode_length": 10.0}, 500, 2
+    )
+    assert s["mean_control_per_step"] == pytest.approx(6.0)
+    # one 500-step episode, speed 0.2 and control 0.2 per step: 100 + 500, -100 + 500 if
+    # it never fell, 100 + 499, -100 + 499 if it fell on its last step; the mean length
+    # cannot tell, so only the bounds are given
+    s = walker2d_common.policy_summary(
+        {"pref": [0.5, 0.5], "return": [600.0, 400.0], "episode_length": 500.0}, 500, 1
+    )
+    assert s["falls_per_episode"] is None and s["mean_control_per_step"] is None
+    np.testing.assert_allclose(s["mean_control_per_step_range"], [0.198, 0.2])
+    np.testing.assert_allclose(s["mean_speed_m_per_s_range"], [0.2, 0.202])
+
+
+def test_falls_per_episode_from_lengths():
+    # 8 episodes of limit 500: a 500-step survivor and seven 1-step falls take 507 steps,
+    # so 8 * 63 = 504 cannot hold a survivor, 8 * 63.375 = 507 can
+    assert walker2d_common.falls_per_episode(62.0, 500, 8) == 1.0
+    assert walker2d_common.falls_per_episode(63.0, 500, 8) == 1.0
+    assert walker2d_common.falls_per_episode(63.375, 500, 8) is None
+    assert walker2d_common.falls_per_episode(500.0, 500, 1) is None
+
+
+def test_committed_walker2d_results_are_what_their_returns_give(tmp_path):
+    """`--resummarize` recomputes the committed summaries from the committed returns:
+    what the README quotes is what the code computes, with every policy in the default
+    reference box and every control per step within its physical maximum of 6."""
+    import walker2d_front
+    from pymoo.indicators.hv import HV
+
+    for name in ("walker2d_front", "walker2d_front_1M"):
+        committed = os.path.join(ROOT, "experiments", "results", name)
+        shutil.copytree(committed, tmp_path / name)
+        walker2d_front.resummarize(str(tmp_path / name))
+        with open(os.path.join(committed, "summary.json")) as f:
+            before = json.load(f)
+        after = json.loads((tmp_path / name / "summary.json").read_text())
+        assert after == before, name
+        for direction, res in after["directions"].items():
+            points = np.array([[p["forward_return"], p["control_return"]] for p in res["policies"]])
+            assert res["hv_ref"] == [-500.0, -3000.0] and res["outside_hv_ref"] == []
+            for table in res["hypervolume_by_ref"]:
+                ref = np.array(table["hv_ref"])
+                inside = np.all(points > ref, axis=1)
+                assert table["outside"] == np.flatnonzero(~inside).tolist()
+                assert table["hypervolume"] == pytest.approx(HV(ref_point=-ref)(-points[inside]))
+            for pol in res["policies"]:
+                assert pol["falls_per_episode"] == 1.0  # every episode fell: exact
+                assert 0 <= pol["mean_control_per_step"] <= 6.0, (name, direction, pol)
 
 
 def test_rank_correlation_by_hand():
@@ -250,6 +304,9 @@ def test_ablation_grid_is_the_papers():
 
 @pytest.mark.slow
 def test_walker2d_front_tiny(tmp_path, jax_cache):
+    import scipy.stats
+    from pymoo.indicators.hv import HV
+
     _run(
         "walker2d_front.py",
         *TINY_WALKER,
@@ -262,14 +319,20 @@ def test_walker2d_front_tiny(tmp_path, jax_cache):
     for direction, res in summary["directions"].items():
         front = json.loads((tmp_path / direction / "front.json").read_text())
         assert front["config"]["train"]["scalarization"] == direction
-        assert res["hypervolume"] == front["hypervolume"]
         assert len(res["policies"]) == len(front["prefs"]) == 9
         for pol, row in zip(res["policies"], front["prefs"], strict=True):
             assert pol["pref"] == row["pref"] and pol["forward_return"] == row["return"][0]
-            assert np.isfinite(pol["mean_speed_m_per_s"])
-        assert -1.0 <= res["pref0_forward_rank_correlation"] <= 1.0 or np.isnan(
-            res["pref0_forward_rank_correlation"]
-        )
+            if pol["falls_per_episode"] is not None:
+                assert 0 <= pol["mean_control_per_step"] <= 6.0
+        # the metrics, recomputed from the saved returns by independent code
+        points = np.array([row["return"] for row in front["prefs"]])
+        ref = np.array(res["hv_ref"])
+        inside = np.all(points > ref, axis=1)
+        assert res["outside_hv_ref"] == np.flatnonzero(~inside).tolist()
+        expected = HV(ref_point=-ref)(-points[inside]) if inside.any() else 0.0
+        assert res["hypervolume"] == pytest.approx(expected, rel=1e-9)
+        rho = scipy.stats.spearmanr([row["pref"][0] for row in front["prefs"]], points[:, 0])
+        np.testing.assert_allclose(res["pref0_forward_rank_correlation"], rho.statistic)
     for name in ("front.png", "curves.png"):
         assert (tmp_path / name).stat().st_size > 1000
         (tmp_path / name).unlink()

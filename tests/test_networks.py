@@ -36,13 +36,40 @@ def test_paper_network_initialisation_statistics():
     assert float(jnp.var(params.fixed["c"])) == pytest.approx(1.0, rel=0.2)
 
 
-def test_only_trainable_parameters_get_gradients():
+def test_every_w_gets_a_gradient_and_a_and_c_stay_fixed():
     net = networks.paper_network(3, 1, 8, 2)
     params = net.init(jax.random.key(1))
-    grads = jax.grad(lambda tr: net.apply(NetParams(tr, params.fixed), jnp.ones(3))[0])(
-        params.trainable
+    x = jnp.array([0.6, 0.0, 0.8])
+    grads = jax.grad(lambda tr: net.apply(NetParams(tr, params.fixed), x)[0])(params.trainable)
+    for b, g in enumerate(grads["w"]):
+        assert g.shape == params.trainable["w"][b].shape
+        assert float(jnp.abs(g).max()) > 0, f"W_{b + 1} gets no gradient"
+    # one training iteration (critic TD steps and the actor's step) of the paper network
+    # on the bandit: every W of the actor and of both critics moves, A and c do not
+    from wcac_jax import envs
+    from wcac_jax.config import TrainConfig
+    from wcac_jax.train import make_trainer
+
+    config = TrainConfig(
+        num_envs=4, critic_steps=2, rollout_steps=2, num_iterations=1, width=8, depth=2
     )
-    assert jax.tree.structure(grads) == jax.tree.structure(params.trainable)
+    trainer = make_trainer(config, envs.make("concave_bandit"))
+    pref = jnp.array([0.5, 0.5])
+    before = trainer.init(jax.random.key(0), pref)
+    after, _ = jax.jit(trainer.step)(before, pref)
+    for name, old, new in (
+        ("actor", before.actor.trainable["net"]["w"], after.actor.trainable["net"]["w"]),
+        ("critic", before.critic.params.trainable["w"], after.critic.params.trainable["w"]),
+    ):
+        for b, (w0, w1) in enumerate(zip(old, new, strict=True)):
+            assert float(jnp.abs(w1 - w0).max()) > 0, f"{name} W_{b + 1} did not move"
+    for old, new in (
+        (before.actor.fixed["net"], after.actor.fixed["net"]),
+        (before.critic.params.fixed, after.critic.params.fixed),
+    ):
+        assert set(old) == {"a", "c"}
+        for k in ("a", "c"):
+            np.testing.assert_array_equal(new[k], old[k])
 
 
 def test_mlp_network_shapes_and_selection():

@@ -52,6 +52,19 @@ def test_nondominated_against_brute_force_with_ties():
             assert mask[i] == (not dominated and first)
 
 
+def test_outside_reference_by_hand():
+    pts = [[1, 3], [2, -1], [0, 5], [-3, -3]]
+    # (2, -1) is below ref in y, (0, 5) on its boundary in x: neither adds volume
+    np.testing.assert_array_equal(pareto.outside_reference(pts, [0, 0]), [False, True, True, True])
+    assert pareto.hypervolume(pts, [0, 0]) == pytest.approx(3.0)
+    # a lower reference takes every point in: (2+4)*(3+4) + ... by the staircase
+    assert not pareto.outside_reference(pts, [-4, -4]).any()
+    # sorted by x: (2,-1): 6*3=18; (1,3): 5*4=20; (0,5): 4*2=8; (-3,-3) dominated
+    assert pareto.hypervolume(pts, [-4, -4]) == pytest.approx(46.0)
+    with pytest.raises(ValueError, match="objectives"):
+        pareto.outside_reference(pts, [0, 0, 0])
+
+
 def test_expected_utility_by_hand():
     pts = [[1.0, 0.0], [0.0, 1.0], [0.6, 0.6]]
     weights = [[1.0, 0.0], [0.5, 0.5], [0.0, 1.0]]

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from sweep_args import TINY_BANDIT
 
-from wcac_jax import sweep
+from wcac_jax import pareto, sweep
 
 TINY = [*TINY_BANDIT, "--quiet"]
 # slow enough (about a second per chunk) that a SIGKILL lands between chunks
@@ -83,7 +83,22 @@ def test_outputs_exist_parse_and_agree(tiny_run):
         np.testing.assert_allclose(row["j_hat"], curves["train/j_hat"][i, -1], rtol=1e-6)
         assert len(row["return"]) == len(row["discounted_return"]) == 2
     assert front["env_steps_per_pref"] == int(curves["train/env_steps"][0, -1])
-    assert front["hypervolume"] >= 0 and front["hv_ref"] == [0.0, 0.0]
+    # the metrics, recomputed from the saved returns by independent code (pymoo's HV,
+    # brute-force dominance)
+    assert front["hv_ref"] == [0.0, 0.0]  # the bandit's default_hv_ref
+    returns = np.array([row["return"] for row in front["prefs"]])
+    ref = np.array(front["hv_ref"])
+    inside = np.all(returns > ref, axis=1)
+    from pymoo.indicators.hv import HV
+
+    expected_hv = HV(ref_point=-ref)(-returns[inside]) if inside.any() else 0.0
+    assert front["hypervolume"] == pytest.approx(expected_hv, rel=1e-9)
+    assert front["outside_hv_ref"] == np.flatnonzero(~inside).tolist()
+    for i, (row, p) in enumerate(zip(front["prefs"], returns, strict=True)):
+        dominated = any(np.all(q >= p) and np.any(q > p) for q in returns)
+        duplicate = any(np.array_equal(returns[j], p) for j in range(i))
+        assert row["nondominated"] == (not dominated and not duplicate), i
+        assert row["inside_hv_ref"] == bool(inside[i])
     lines = open(os.path.join(tiny_run, "front.csv")).read().strip().splitlines()
     assert len(lines) == 5 and lines[0].startswith("pref_one_minus_sin")
     with open(os.path.join(tiny_run, "config.json")) as f:
@@ -128,6 +143,9 @@ def test_load_sweep_restores_the_trained_state(tiny_run, tmp_path):
     assert int(state1.iteration) == t + 1
     assert all(np.isfinite(np.asarray(v)).all() for v in metrics.values())
     with pytest.raises(sweep.SweepError, match="no sweep in"):
+        sweep.load_sweep(str(tmp_path))
+    (tmp_path / "config.json").write_text("{not json")
+    with pytest.raises(sweep.SweepError, match="no readable sweep config"):
         sweep.load_sweep(str(tmp_path))
 
 
@@ -185,6 +203,26 @@ def test_two_devices_match_one(tiny_run, tmp_path):
     )
 
 
+def test_default_hv_ref_of_every_environment():
+    from wcac_jax import envs
+
+    for name in envs.names():
+        env = envs.make(name)
+        assert len(sweep.default_hv_ref(env)) == env.num_objectives, name
+    assert sweep.default_hv_ref(envs.make("concave_bandit")) == (0.0, 0.0)
+    # walker2d: per step -1 forward and -6 control (its least reward), times the limit
+    assert sweep.default_hv_ref(envs.make("walker2d", episode_length=100)) == (-100.0, -600.0)
+    # Deep Sea Treasure: no treasure, every step of the limit spent; its time objective
+    # is negative, so the old (0, 0) gave every front a hypervolume of 0
+    dst = envs.make("deep_sea_treasure", episode_length=100)
+    ref = sweep.default_hv_ref(dst)
+    assert ref == (0.0, -100.0)
+    # treasure 1 one step down, treasure 124 after 19 steps: 124 * 81 + 1 * 18
+    pts = [[1.0, -1.0], [124.0, -19.0]]
+    assert pareto.hypervolume(pts, ref) == pytest.approx(124 * 81 + 18)
+    assert not pareto.outside_reference(pts, ref).any()
+
+
 BAD = [
     (["--prefs", "1,0,0;0,1"], "has 3 entries"),
     (["--prefs", "1.5,-0.5"], "negative"),
@@ -198,7 +236,19 @@ BAD = [
     (["--env", "atari"], "'atari'; valid: concave_bandit, .*walker2d"),
     (["--physics", "bullet"], "'physics'"),
     (["--scalarization", "max"], "'max'"),
-    (["--steps-per-pref", "0"], "--steps-per-pref"),
+    (["--steps-per-pref", "0"], "steps_per_pref must be a positive integer, got 0"),
+    (["--eval-episodes", "0"], "eval_episodes must be a positive integer, got 0"),
+    (["--hv-ref", "nan,nan"], r"hv_ref must be finite, got \[nan, nan\]"),
+    (["--hv-ref", "1,2,3"], r"hv_ref \[1.0, 2.0, 3.0\] has 3 entries"),
+    (["--seed", "1180591620717411303424"], "seed .*got 1180591620717411303424"),
+    # more iterations than the int32 counter holds
+    (["--steps-per-pref", "10000000000000"], "steps_per_pref 10000000000000 needs"),
+    # fewer iterations than that, but more metrics than the machine's memory
+    (["--steps-per-pref", "100000000000"], "steps_per_pref 100000000000 needs .* GiB"),
+    (["--mu", "inf"], "mu must be finite in float32 .*got inf"),
+    (["--actor-lr", "inf"], "actor_lr must be finite in float32 .*got inf"),
+    (["--critic-lr", "nan"], "critic_lr must be > 0, got nan"),
+    (["--j-ub", "1e39,1"], r"j_ub must be finite in float32 .*got \[1e\+39, 1.0\]"),
 ]
 
 
@@ -211,6 +261,45 @@ def test_bad_input_exits_2_and_writes_nothing(args, message, tmp_path, capsys):
     assert len(err.strip().splitlines()) == 1 and err.startswith("error: ")
     assert __import__("re").search(message, err), err
     assert not out.exists()
+
+
+def _tree(path):
+    """Every file under `path` with its size and modification time."""
+    out = {}
+    for root, _, files in os.walk(path):
+        for name in files:
+            st = os.stat(os.path.join(root, name))
+            out[os.path.relpath(os.path.join(root, name), path)] = (st.st_size, st.st_mtime_ns)
+    return out
+
+
+def test_resume_into_a_read_only_directory_exits_2(tiny_run, capsys, monkeypatch):
+    # running as root, chmod cannot make a directory unwritable: os.access reports it
+    real_access = os.access
+    monkeypatch.setattr(
+        sweep.os,
+        "access",
+        lambda path, mode: False if os.path.abspath(path) == tiny_run else real_access(path, mode),
+    )
+    before = _tree(tiny_run)
+    rc = sweep.main([*TINY, "--n-prefs", "4", "--chunks", "3", "--out", tiny_run, "--resume"])
+    err = capsys.readouterr().err
+    assert rc == 2 and len(err.strip().splitlines()) == 1, err
+    assert f"{tiny_run!r} is not writable" in err
+    assert _tree(tiny_run) == before
+
+
+@pytest.mark.parametrize("text", ["{not json", "[1, 2]"])
+def test_resume_with_a_corrupt_config_exits_2(tmp_path, capsys, text):
+    out = tmp_path / "run"
+    out.mkdir()
+    (out / "config.json").write_text(text)
+    before = _tree(out)
+    rc = sweep.main([*TINY, "--n-prefs", "2", "--out", str(out), "--resume"])
+    err = capsys.readouterr().err
+    assert rc == 2 and len(err.strip().splitlines()) == 1, err
+    assert "config.json" in err and ("not readable JSON" in err or "no sweep config" in err)
+    assert _tree(out) == before
 
 
 def test_unwritable_out_exits_2(tmp_path, capsys):

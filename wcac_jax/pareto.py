@@ -2,6 +2,7 @@
 
 `nondominated` (the mask of the front), `hypervolume` (exact: a sweep line for `m = 2`,
 a recursive slicing algorithm (HSO) over the non-dominated set for `m >= 3`),
+`outside_reference` (the points a reference point leaves out of the hypervolume),
 `expected_utility` (EUM), `sparsity`, `cardinality`, and `simplex_lattice` (the uniform
 preference grid the sweep uses). All points are maximised: `a` dominates `b` when
 `a >= b` everywhere and `a > b` somewhere. NaN inputs and mismatched shapes raise
@@ -101,6 +102,20 @@ def hypervolume(points, ref) -> float:
     pts = pts[np.all(pts > ref, axis=1)]
     pts = pts[nondominated(pts)]
     return float(_hv(pts, ref))
+
+
+def outside_reference(points, ref) -> np.ndarray:
+    """Boolean mask `[n]` of the rows of `points` `[n, m]` that do not strictly dominate
+    `ref` `[m]`: they lie outside the reference box and add nothing to `hypervolume`.
+
+    >>> outside_reference([[1, 3], [2, -1], [0, 5]], [0, 0]).tolist()
+    [False, True, True]
+    """
+    pts = _points(points)
+    ref = np.asarray(ref, dtype=np.float64)
+    if ref.ndim != 1 or (pts.size and ref.shape[0] != pts.shape[1]):
+        raise ValueError(f"ref has shape {ref.shape}; points have {pts.shape[-1]} objectives")
+    return ~np.all(pts > ref, axis=1)
 
 
 def expected_utility(points, weights) -> float:

@@ -63,7 +63,7 @@ PAPER_PREFS = (
 # The newcomer's default: about 8 minutes on a 2-core CPU for 9 preferences (measured).
 DEFAULT_STEPS_PER_PREF = 100_000
 PAPER_STEPS_PER_PREF = 1_000_000
-DEFAULT_HV_REF = {"walker2d": (-100.0, -100.0), "concave_bandit": (0.0, 0.0)}
+MAX_ITERATIONS = 2**31 - 1  # `TrainState.iteration` is int32
 
 
 class SweepError(ValueError):
@@ -98,6 +98,28 @@ class SweepConfig:
     seed: int = 0
     eval_episodes: int = 8
     hv_ref: tuple[float, ...] | None = None
+
+    def __post_init__(self):
+        for name in ("steps_per_pref", "eval_episodes"):
+            value = getattr(self, name)
+            if not isinstance(value, int | np.integer) or isinstance(value, bool) or value < 1:
+                raise SweepError(f"{name} must be a positive integer, got {value!r}")
+        if self.num_iterations > MAX_ITERATIONS:
+            raise SweepError(
+                f"steps_per_pref {self.steps_per_pref} needs {self.num_iterations:,} iterations of "
+                f"{self.train.env_steps_per_iteration:,} env steps; at most {MAX_ITERATIONS:,} "
+                "(the iteration counter is int32)"
+            )
+        if not isinstance(self.seed, int | np.integer) or not -(2**63) <= self.seed < 2**63:
+            raise SweepError(f"seed must be an integer in [-2**63, 2**63), got {self.seed!r}")
+        if self.hv_ref is not None:
+            try:
+                hv_ref = tuple(float(v) for v in self.hv_ref)
+            except (TypeError, ValueError):
+                raise SweepError(f"hv_ref must be a list of numbers, got {self.hv_ref!r}") from None
+            if not all(math.isfinite(v) for v in hv_ref):
+                raise SweepError(f"hv_ref must be finite, got {list(hv_ref)}")
+            object.__setattr__(self, "hv_ref", hv_ref)
 
     @property
     def num_iterations(self) -> int:
@@ -160,6 +182,22 @@ def validate_prefs(prefs, m: int) -> np.ndarray:
     return np.asarray(prefs, dtype=np.float64)
 
 
+def default_hv_ref(env) -> tuple[float, ...]:
+    """The environment's hypervolume reference point, `env.default_hv_ref`.
+
+    The rule every environment follows: per objective, the least return an episode can
+    have (for an unbounded objective, a stated floor far below any return seen), so that
+    every policy's point lies in the reference box and counts; `front.json` lists any
+    policy that does not (`outside_hv_ref`).
+    """
+    ref = getattr(env, "default_hv_ref", None)
+    if ref is None:
+        raise SweepError(
+            f"environment {type(env).__name__} has no default_hv_ref; pass hv_ref (--hv-ref)"
+        )
+    return tuple(float(v) for v in ref)
+
+
 def _make_env(config: SweepConfig):
     try:
         return envs.make(config.env, **config.env_options)
@@ -207,13 +245,22 @@ def check_output_dir(out: str, config: SweepConfig, resume: bool) -> None:
         path = os.path.join(out, "config.json")
         if not os.path.isfile(path):
             raise SweepError(f"--resume: no sweep to resume in {out!r} (no config.json)")
-        with open(path) as f:
-            saved = _flatten(json.load(f))
+        try:
+            with open(path) as f:
+                saved = json.load(f)
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
+            raise SweepError(f"--resume: {path!r} is not readable JSON ({err})") from None
+        if not isinstance(saved, dict):
+            raise SweepError(f"--resume: {path!r} holds no sweep config (a {type(saved).__name__})")
+        saved = _flatten(saved)
         new = _flatten(json.loads(_json_bytes(config.to_dict())))
         differ = sorted(k for k in set(saved) | set(new) if saved.get(k) != new.get(k))
         if differ:
             details = ", ".join(f"{k} (saved {saved.get(k)!r}, now {new.get(k)!r})" for k in differ)
             raise SweepError(f"--resume: the config in {out!r} differs: {details}")
+        for path in (out, os.path.join(out, "checkpoint")):
+            if os.path.exists(path) and not os.access(path, os.W_OK | os.X_OK):
+                raise SweepError(f"--resume: {path!r} is not writable")
         return
     if os.path.exists(out):
         if not os.path.isdir(out):
@@ -312,8 +359,11 @@ def load_sweep(out: str) -> LoadedSweep:
     path = os.path.join(out, "config.json")
     if not os.path.isfile(path):
         raise SweepError(f"no sweep in {out!r} (no config.json)")
-    with open(path) as f:
-        config = SweepConfig.from_dict(json.load(f))
+    try:
+        with open(path) as f:
+            config = SweepConfig.from_dict(json.load(f))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError, KeyError, TypeError) as err:
+        raise SweepError(f"{path!r} holds no readable sweep config ({err!r})") from None
     import orbax.checkpoint as ocp
 
     manager = ocp.CheckpointManager(os.path.abspath(os.path.join(out, "checkpoint")))
@@ -377,7 +427,7 @@ def run_sweep(
         j_ub = resolve_j_ub(train_cfg, env)
     except ValueError as err:
         raise SweepError(str(err)) from None
-    hv_ref = config.hv_ref or DEFAULT_HV_REF.get(config.env, (0.0,) * m)
+    hv_ref = config.hv_ref if config.hv_ref is not None else default_hv_ref(env)
     if len(hv_ref) != m:
         raise SweepError(f"hv_ref {list(hv_ref)} has {len(hv_ref)} entries, expected {m}")
     if not isinstance(chunks, int) or chunks < 1:
@@ -416,6 +466,16 @@ def run_sweep(
     state = init_fn(keys_dev, prefs_dev)
     abstract = jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape, x.dtype), (state, prefs_dev))
     template = jax.eval_shape(jax.vmap(trainer.step), *abstract)[1]
+    metrics_bytes = sum(
+        n_prefs * n_iters * math.prod(s.shape[1:]) * np.dtype(s.dtype).itemsize
+        for s in template.values()
+    )
+    if metrics_bytes > _host_memory_bytes():
+        raise SweepError(
+            f"steps_per_pref {config.steps_per_pref} needs {metrics_bytes / 2**30:,.1f} GiB of "
+            f"per-iteration metrics ({n_iters:,} iterations x {n_prefs} preferences); this "
+            f"machine has {_host_memory_bytes() / 2**30:,.1f} GiB"
+        )
     metrics = {k: np.zeros((n_prefs, n_iters, *s.shape[1:]), s.dtype) for k, s in template.items()}
 
     manager = None
@@ -501,6 +561,11 @@ def run_sweep(
     return front
 
 
+def _host_memory_bytes() -> int:
+    """Physical memory of this host."""
+    return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+
+
 def _check_finite(metrics, lo, hi, prefs, manager):
     for k, v in metrics.items():
         bad = ~np.isfinite(v[:, lo:hi].reshape(v.shape[0], hi - lo, -1)).all(axis=-1)
@@ -521,6 +586,7 @@ def _front(config, env, prefs, j_ub, hv_ref, metrics, evaluation, timing) -> dic
     disc = np.asarray(evaluation["eval/discounted_return"])[:n]
     length = np.asarray(evaluation["eval/length"])[:n]
     nd = pareto.nondominated(returns)
+    outside = pareto.outside_reference(returns, hv_ref)
     steps = int(metrics["train/env_steps"][0, -1])
     rows = []
     for i in range(n):
@@ -536,6 +602,7 @@ def _front(config, env, prefs, j_ub, hv_ref, metrics, evaluation, timing) -> dic
                 "j_hat": metrics["train/j_hat"][i, -1].tolist(),
                 "train_episode_return": metrics["train/episode_return"][i, -1].tolist(),
                 "nondominated": bool(nd[i]),
+                "inside_hv_ref": not bool(outside[i]),
             }
         )
     return {
@@ -546,6 +613,9 @@ def _front(config, env, prefs, j_ub, hv_ref, metrics, evaluation, timing) -> dic
         "hypervolume": pareto.hypervolume(returns, hv_ref),
         "hypervolume_discounted": pareto.hypervolume(disc, hv_ref),
         "hv_ref": list(hv_ref),
+        # preferences whose (undiscounted) returns do not strictly dominate hv_ref: they
+        # add nothing to the hypervolume
+        "outside_hv_ref": [i for i in range(n) if outside[i]],
         "cardinality": pareto.cardinality(returns),
         "sparsity": pareto.sparsity(returns),
         "expected_utility": pareto.expected_utility(
@@ -690,7 +760,12 @@ def build_parser() -> argparse.ArgumentParser:
         default=d.actor_optimizer,
         help="normalized, normalized_harmonic, adam or sgd",
     )
-    p.add_argument("--hv-ref", default=None, help="hypervolume reference point, e.g. '-100,-100'")
+    p.add_argument(
+        "--hv-ref",
+        default=None,
+        help="hypervolume reference point, e.g. '-500,-3000' (default: the environment's "
+        "default_hv_ref, per objective the least return an episode can have)",
+    )
     p.add_argument(
         "--eval-episodes", type=int, default=8, help="evaluation episodes per preference"
     )
@@ -742,10 +817,6 @@ def config_from_args(args) -> SweepConfig:
         )
     except ValueError as err:
         raise SweepError(str(err)) from None
-    if args.steps_per_pref < 1:
-        raise SweepError(f"--steps-per-pref must be >= 1, got {args.steps_per_pref}")
-    if args.eval_episodes < 1:
-        raise SweepError(f"--eval-episodes must be >= 1, got {args.eval_episodes}")
     return SweepConfig(
         prefs=prefs,
         env=args.env,
@@ -783,6 +854,14 @@ def main(argv=None) -> int:
             f"wrote {out}: {len(front['prefs'])} preferences, hypervolume "
             f"{front['hypervolume']:.4g}, {front['env_steps_per_s']:,.0f} env-steps/s, "
             f"{front['wall_s']:.0f} s"
+        )
+    outside = front["outside_hv_ref"]
+    if outside:
+        print(
+            f"warning: {len(outside)} of {len(front['prefs'])} policies lie outside the "
+            f"hypervolume reference box {front['hv_ref']} and add nothing to it: "
+            + ", ".join(f"#{i} {front['prefs'][i]['pref']}" for i in outside),
+            file=sys.stderr,
         )
     return 0
 

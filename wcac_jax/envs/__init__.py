@@ -3,8 +3,10 @@
 `make(name, **overrides)` builds an environment; every environment is a Brax-style `Env`
 (`reset(key) -> State`, `step(state, action) -> State`, single unbatched copy) whose
 `State.reward` is a vector with one entry per objective, and which exposes
-`num_objectives`, `objective_names`, `default_j_ub` and `episode_length`. Training code
-wraps it with `EpisodeWrapper` and vmaps it; nothing here imports training code.
+`num_objectives`, `objective_names`, `default_j_ub`, `default_hv_ref` (the hypervolume
+reference point: per objective the least return an episode can have) and
+`episode_length`. Training code wraps it with `EpisodeWrapper` and vmaps it; nothing
+here imports training code.
 """
 
 from __future__ import annotations

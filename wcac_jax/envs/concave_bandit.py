@@ -75,6 +75,8 @@ class ConcaveBandit(Env):
     num_objectives = 2
     objective_names = OBJECTIVE_NAMES
     default_j_ub = DEFAULT_J_UB
+    # hypervolume reference: the least return of each objective (both lie in [0, 1])
+    default_hv_ref = (0.0, 0.0)
     episode_length = 1
 
     def reset(self, rng: jax.Array) -> State:

@@ -70,6 +70,10 @@ class DeepSeaTreasure(Env):
         if not isinstance(episode_length, int) or episode_length < 1:
             raise ValueError(f"episode_length must be a positive integer, got {episode_length!r}")
         self.episode_length = episode_length
+        # hypervolume reference: the least return of each objective, no treasure (0) and
+        # every step of the time limit spent (-episode_length; discounted returns are
+        # above it too), so every policy that reaches a treasure lies inside the box
+        self.default_hv_ref = (0.0, -float(episode_length))
         _, treasure = _grid()
         self._next = jnp.asarray(_next_cell_table())
         self._treasure = jnp.asarray(treasure.reshape(-1))

@@ -71,6 +71,7 @@ class TabularMOMDP(Env):
         self.objective_names = tuple(f"objective_{i}" for i in range(num_objectives))
         # J <= 1 / (1 - gamma); a little above it is a valid utopia point
         self.default_j_ub = (1.0 / (1.0 - gamma) + 0.5,) * num_objectives
+        self.default_hv_ref = (0.0,) * num_objectives  # rewards >= 0: the least return
 
     def reset(self, rng: jax.Array) -> State:
         zero = jnp.zeros((), jnp.float32)
