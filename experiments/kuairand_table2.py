@@ -24,6 +24,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import sys
 import time
 from dataclasses import asdict, replace
@@ -164,8 +165,10 @@ def run(data_dir: str, out: str, cfg: offline.OfflineConfig, seed: int, log=prin
     t0 = time.perf_counter()
     data = load(data_dir)
     t_load = time.perf_counter() - t0
-    log(f"loaded {data.n_rows} rows ({data.n_train} train), state {data.state_dim} dims "
-        f"in {t_load:.1f}s")  # fmt: skip
+    log(
+        f"loaded {data.n_rows} rows ({data.n_train} train), state {data.state_dim} dims "
+        f"in {t_load:.1f}s"
+    )
     obj = offline.objectives(data, cfg.gamma, cfg.ub_margin)
     model_path = os.path.join(data_dir, MODEL_FILE)
     model = ResponseModel.load(model_path) if os.path.isfile(model_path) else None
@@ -180,8 +183,10 @@ def run(data_dir: str, out: str, cfg: offline.OfflineConfig, seed: int, log=prin
     bc_params, bc_losses = jax.jit(bc_train)(keys[0], data)
     behaviour = _test_actions(bc_act, bc_params, data, prefs_axis=False)
     times["bc"] = time.perf_counter() - t
-    log(f"Behavior-Clone: loss {float(bc_losses[0]):.3f} -> {float(bc_losses[-1]):.3f}, "
-        f"{times['bc']:.1f}s")  # fmt: skip
+    log(
+        f"Behavior-Clone: loss {float(bc_losses[0]):.3f} -> {float(bc_losses[-1]):.3f}, "
+        f"{times['bc']:.1f}s"
+    )
 
     actions = {"bc": behaviour[None]}
     curves = {}
@@ -196,13 +201,17 @@ def run(data_dir: str, out: str, cfg: offline.OfflineConfig, seed: int, log=prin
         actions[method] = _test_actions(act, state.actor, data, prefs_axis=True)
         times[method] = time.perf_counter() - t
         curves[method] = {
-            "critic_loss_first_last": [float(metrics["train/critic_loss"][0, 0]),
-                                       float(metrics["train/critic_loss"][0, -1])],
+            "critic_loss_first_last": [
+                float(metrics["train/critic_loss"][0, 0]),
+                float(metrics["train/critic_loss"][0, -1]),
+            ],
             "final_weights": np.asarray(state.weights[0]).round(4).tolist(),
             "mean_test_action": float(actions[method][0].mean()),
-        }  # fmt: skip
-        log(f"{method}: P={prefs.shape[0]}, {times[method]:.1f}s, mean test action "
-            f"{actions[method][0].mean():.1f} (logged {float(logged.mean()):.1f})")  # fmt: skip
+        }
+        log(
+            f"{method}: P={prefs.shape[0]}, {times[method]:.1f}s, mean test action "
+            f"{actions[method][0].mean():.1f} (logged {float(logged.mean()):.1f})"
+        )
 
     truth_table = _truth_tables(model, data) if model is not None else None
     beh = jnp.asarray(behaviour)
@@ -223,8 +232,9 @@ def run(data_dir: str, out: str, cfg: offline.OfflineConfig, seed: int, log=prin
         s = scores[key]
         s["vs_bc"] = {sig: _percent(s["ncis"][sig] - bc_ncis[sig], bc_ncis[sig]) for sig in SIGNALS}
         table["methods"][NAMES[key]] = {k: s[k] for k in ("ncis", "vs_bc", "truth") if k in s}
-    table["logged"] = {"mean": dict(zip(SIGNALS, np.asarray(test_reward.mean(0)).tolist(),
-                                        strict=True))}  # fmt: skip
+    table["logged"] = {
+        "mean": dict(zip(SIGNALS, np.asarray(test_reward.mean(0)).tolist(), strict=True))
+    }
     if truth_table is not None:
         users = np.asarray(data.user_index[data.n_train :])
         vids = data.video_ids[np.asarray(data.action[data.n_train :])]
@@ -232,8 +242,12 @@ def run(data_dir: str, out: str, cfg: offline.OfflineConfig, seed: int, log=prin
         table["logged"]["truth"] = dict(zip(SIGNALS, true_logged.tolist(), strict=True))
 
     # Fig. 2: the 7 leaning policies (rows 1..7 of wcac's sweep) against the unified (row 0)
-    fig2 = {"prefs": leaning_prefs().tolist(), "signals": list(SIGNALS), "values": {},
-            "improvement": {}}  # fmt: skip
+    fig2 = {
+        "prefs": leaning_prefs().tolist(),
+        "signals": list(SIGNALS),
+        "values": {},
+        "improvement": {},
+    }
     lean_scores = [score(a) for a in actions["wcac"]]
     sign = np.array([-1.0 if s == "hate" else 1.0 for s in SIGNALS])
     for kind in ("ncis", "truth"):
@@ -268,6 +282,9 @@ def run(data_dir: str, out: str, cfg: offline.OfflineConfig, seed: int, log=prin
         "reward_scale": np.asarray(obj.scale).tolist(),
         "training": curves,
         "seconds": {k: round(v, 1) for k, v in times.items()},
+        # CPU seconds of this process: with other jobs on the machine, wall time overstates
+        # what the run itself needs
+        "cpu_seconds": round(sum(resource.getrusage(resource.RUSAGE_SELF)[:2]), 1),
         "cpu_count": os.cpu_count(),
         "load_average_at_end": list(os.getloadavg()),
     }

@@ -45,18 +45,35 @@ VIDEO_BASIC_FILE = "video_features_basic_27k.csv"
 VIDEO_STATISTIC_GLOB = "video_features_statistic_27k_part*.csv"
 
 REWARD_COLUMNS = (
-    "is_click", "is_like", "is_follow", "is_comment", "is_forward", "is_hate", "play_time_ms",
-)  # fmt: skip
+    "is_click",
+    "is_like",
+    "is_follow",
+    "is_comment",
+    "is_forward",
+    "is_hate",
+    "play_time_ms",
+)
 SIGNALS = ("click", "like", "follow", "comment", "forward", "hate", "watch_time")
 LOG_COLUMNS = ("user_id", "video_id", *REWARD_COLUMNS)
 USER_CATEGORICAL = (
-    "user_active_degree", "is_video_author", "follow_user_num_range",
-    "fans_user_num_range", "friend_user_num_range", "register_days_range",
-)  # fmt: skip
+    "user_active_degree",
+    "is_video_author",
+    "follow_user_num_range",
+    "fans_user_num_range",
+    "friend_user_num_range",
+    "register_days_range",
+)
 USER_ONEHOT = tuple(f"onehot_feat{j}" for j in range(18))
 VIDEO_BASIC_COLUMNS = ("video_id", "video_duration", "music_type", "tag")
 VIDEO_STAT_COLUMNS = ("video_id", "play_user_num", "play_duration", "like_cnt")
-VIDEO_FEATURES = ("video_duration", "music_type", "tag", "play_user_num", "play_duration", "like_cnt")
+VIDEO_FEATURES = (
+    "video_duration",
+    "music_type",
+    "tag",
+    "play_user_num",
+    "play_duration",
+    "like_cnt",
+)
 PAPER_TRAIN_FRACTION = 450_000 / 480_385
 
 

@@ -76,9 +76,7 @@ def index_probabilities(action: chex.Array, n_candidates: int, sigma: float = SI
     return upper - lower
 
 
-def true_value(
-    action: chex.Array, expected: chex.Array, sigma: float = SIGMA
-) -> chex.Array:
+def true_value(action: chex.Array, expected: chex.Array, sigma: float = SIGMA) -> chex.Array:
     """The policy's true expected signals over the test rows.
 
     Args:

@@ -108,7 +108,7 @@ class OfflineConfig:
     width: int = 128
     gamma: float = 0.99
     critic_lr: float = 1e-3
-    actor_lr: float = 3e-4
+    actor_lr: float = 1e-3
     tau: float = 0.005
     mu: float = 0.01
     ub_margin: float = 0.2
@@ -222,7 +222,7 @@ class OfflineState:
 
 
 def make_networks(spec: MethodSpec, cfg: OfflineConfig, in_dim: int):
-    """`(actor, critic)` Networks: actor `[.., in_dim] -> [.., 1]`, critic `[.., in_dim + 7] -> [.., 1]`."""
+    """`(actor, critic)` Networks: actor `[.., in] -> [.., 1]`, critic `[.., in + 7] -> [.., 1]`."""
     if spec.network == "dnn":
         return (
             make_network("mlp", in_dim, 1, cfg.width, 2, policy_head=True),

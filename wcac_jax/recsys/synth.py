@@ -55,12 +55,31 @@ MEAN_PLAY_TIME_MS = 12_850.0
 SIGNALS = ("click", "like", "follow", "comment", "forward", "hate", "watch_time")
 
 LOG_COLUMNS = (
-    "user_id", "video_id", "date", "hourmin", "time_ms", "is_click", "is_like", "is_follow",
-    "is_comment", "is_forward", "is_hate", "long_view", "play_time_ms", "duration_ms",
-    "profile_stay_time", "comment_stay_time", "is_profile_enter", "is_rand", "tab",
-)  # fmt: skip
+    "user_id",
+    "video_id",
+    "date",
+    "hourmin",
+    "time_ms",
+    "is_click",
+    "is_like",
+    "is_follow",
+    "is_comment",
+    "is_forward",
+    "is_hate",
+    "long_view",
+    "play_time_ms",
+    "duration_ms",
+    "profile_stay_time",
+    "comment_stay_time",
+    "is_profile_enter",
+    "is_rand",
+    "tab",
+)
 FILES = {
-    "standard": ("log_standard_4_08_to_4_21_27k_part1.csv", "log_standard_4_08_to_4_21_27k_part2.csv"),
+    "standard": (
+        "log_standard_4_08_to_4_21_27k_part1.csv",
+        "log_standard_4_08_to_4_21_27k_part2.csv",
+    ),
     "random": "log_random_4_22_to_5_08_27k.csv",
     "user": "user_features_27k.csv",
     "video_basic": "video_features_basic_27k.csv",
@@ -69,7 +88,7 @@ FILES = {
         "video_features_statistic_27k_part2.csv",
         "video_features_statistic_27k_part3.csv",
     ),
-}  # fmt: skip
+}
 MODEL_FILE = "synthetic_response_model.npz"
 
 LATENT = 4
@@ -86,9 +105,13 @@ _W_HATE = dict(a=-0.9, c=0.8, q=-0.5)
 _W_WATCH = dict(a=0.9, q=0.5, d=-0.4)
 _WATCH_NOISE = 0.6
 _BINARY = (
-    ("is_click", _W_CLICK), ("is_like", _W_LIKE), ("is_follow", _W_FOLLOW),
-    ("is_comment", _W_COMMENT), ("is_forward", _W_FORWARD), ("is_hate", _W_HATE),
-)  # fmt: skip
+    ("is_click", _W_CLICK),
+    ("is_like", _W_LIKE),
+    ("is_follow", _W_FOLLOW),
+    ("is_comment", _W_COMMENT),
+    ("is_forward", _W_FORWARD),
+    ("is_hate", _W_HATE),
+)
 _GATED = ("is_like", "is_follow", "is_comment", "is_forward")  # need a click
 
 
@@ -223,8 +246,9 @@ def _users(rng, cfg: SynthConfig):
     user_ids = np.arange(cfg.users)
     z = rng.normal(size=(cfg.users, LATENT))
     activity = rng.lognormal(0.0, 0.8, cfg.users)
-    deg = np.array(["UNKNOWN", "2_14_day_new", "low_active", "middle_active", "high_active",
-                    "full_active"])[np.digitize(np.log(activity), [-1.8, -1.2, -0.6, 0.0, 0.6])]  # fmt: skip
+    deg = np.array(
+        ["UNKNOWN", "2_14_day_new", "low_active", "middle_active", "high_active", "full_active"]
+    )[np.digitize(np.log(activity), [-1.8, -1.2, -0.6, 0.0, 0.6])]
     follow = np.floor(rng.lognormal(3.0, 1.5, cfg.users)).astype(np.int64)
     fans = np.floor(rng.lognormal(1.5, 2.0, cfg.users)).astype(np.int64)
     friend = np.floor(rng.lognormal(1.0, 1.5, cfg.users)).astype(np.int64)
@@ -239,26 +263,39 @@ def _users(rng, cfg: SynthConfig):
             "is_video_author": (rng.random(cfg.users) < 0.3).astype(np.int64),
             "follow_user_num": follow,
             "follow_user_num_range": _buckets(
-                follow, [0, 10, 50, 100, 150, 250, 500],
-                ["0", "(0,10]", "(10,50]", "(50,100]", "(100,150]", "(150,250]", "(250,500]", "500+"],
+                follow,
+                [0, 10, 50, 100, 150, 250, 500],
+                [
+                    "0",
+                    "(0,10]",
+                    "(10,50]",
+                    "(50,100]",
+                    "(100,150]",
+                    "(150,250]",
+                    "(250,500]",
+                    "500+",
+                ],
             ),
             "fans_user_num": fans,
             "fans_user_num_range": _buckets(
-                fans, [0, 9, 99, 999, 4999, 9999],
+                fans,
+                [0, 9, 99, 999, 4999, 9999],
                 ["0", "[1,10)", "[10,100)", "[100,1k)", "[1k,5k)", "[5k,1w)", "[1w,10w)"],
             ),
             "friend_user_num": friend,
             "friend_user_num_range": _buckets(
-                friend, [0, 4, 29, 59, 119, 249],
+                friend,
+                [0, 4, 29, 59, 119, 249],
                 ["0", "[1,5)", "[5,30)", "[30,60)", "[60,120)", "[120,250)", "250+"],
             ),
             "register_days": register,
             "register_days_range": _buckets(
-                register, [30, 60, 90, 180, 365, 730],
+                register,
+                [30, 60, 90, 180, 365, 730],
                 ["15-30", "31-60", "61-90", "91-180", "181-365", "366-730", "730+"],
             ),
         }
-    )  # fmt: skip
+    )
     for j, size in enumerate(ONEHOT_SIZES):
         # a noisy, monotone quantisation of one latent coordinate: learnable from features
         x = z[:, j % LATENT] + 0.3 * rng.normal(size=cfg.users)
@@ -291,7 +328,9 @@ def _videos(rng, cfg: SynthConfig):
             "video_type": np.where(rng.random(cfg.videos) < 0.02, "AD", "NORMAL"),
             "upload_dt": pd.Timestamp("2022-04-20")
             - pd.to_timedelta(rng.integers(0, 400, cfg.videos), unit="D"),
-            "upload_type": rng.choice(["ShortImport", "Web", "PictureSet", "LongImport"], cfg.videos),
+            "upload_type": rng.choice(
+                ["ShortImport", "Web", "PictureSet", "LongImport"], cfg.videos
+            ),
             "visible_status": rng.choice(["public", "friend_visible"], cfg.videos, p=[0.97, 0.03]),
             "video_duration": dur_col,
             "server_width": rng.choice([720, 1080, 540], cfg.videos),
@@ -356,9 +395,7 @@ def generate(cfg: SynthConfig):
     )
     # the standard logs (both parts), then the random-exposure log
     n1, n2, n_rand = cfg.rows, cfg.rows // 4, max(cfg.rows // 10, 1)
-    ui_std = np.concatenate(
-        [_rows_per_user(rng, activity, n1), _rows_per_user(rng, activity, n2)]
-    )
+    ui_std = np.concatenate([_rows_per_user(rng, activity, n1), _rows_per_user(rng, activity, n2)])
     aff = z @ y.T / np.sqrt(LATENT)
     pref = 0.8 * aff + 0.4 * traits[:, 0][None, :] + np.log(pop)[None, :]
     vi_std = _choose_videos(rng, pref, ui_std)
@@ -370,7 +407,9 @@ def generate(cfg: SynthConfig):
     bias = np.zeros(7)
     bias[0] = _bisect_bias(lg_std["is_click"], PURE_RATES["is_click"] * n_std)
     p_click = _sigmoid(bias[0] + lg_std["is_click"])
-    clicked = _exact_count_sample(rng, bias[0] + lg_std["is_click"], round(PURE_RATES["is_click"] * n_std))
+    clicked = _exact_count_sample(
+        rng, bias[0] + lg_std["is_click"], round(PURE_RATES["is_click"] * n_std)
+    )
     std_signals = {"is_click": clicked}
     for j, (name, _) in enumerate(_BINARY[1:], 1):
         k = round(PURE_RATES[name] * n_std)
@@ -400,7 +439,9 @@ def generate(cfg: SynthConfig):
                 signals[name] = (rng.random(n) < p).astype(np.int64)
         frac = _sigmoid(bias[6] + lg["watch"] + _WATCH_NOISE * rng.normal(size=n))
         play = np.round(signals["is_click"] * dur * frac).astype(np.int64)
-        long_view = ((play >= np.minimum(dur, 18_000)) & (signals["is_click"] == 1)).astype(np.int64)
+        long_view = ((play >= np.minimum(dur, 18_000)) & (signals["is_click"] == 1)).astype(
+            np.int64
+        )
         profile = signals["is_follow"] | (rng.random(n) < 0.01 * signals["is_click"])
         comment_stay = np.where(signals["is_comment"] == 1, rng.integers(1_000, 60_000, n), 0)
         return pd.DataFrame(
@@ -408,7 +449,17 @@ def generate(cfg: SynthConfig):
                 "user_id": model.user_ids[ui],
                 "video_id": model.video_ids[vi],
                 **{k: None for k in ("date", "hourmin", "time_ms")},
-                **{k: signals[k] for k in ("is_click", "is_like", "is_follow", "is_comment", "is_forward", "is_hate")},
+                **{
+                    k: signals[k]
+                    for k in (
+                        "is_click",
+                        "is_like",
+                        "is_follow",
+                        "is_comment",
+                        "is_forward",
+                        "is_hate",
+                    )
+                },
                 "long_view": long_view,
                 "play_time_ms": play,
                 "duration_ms": dur.astype(np.int64),
@@ -418,7 +469,7 @@ def generate(cfg: SynthConfig):
                 "is_rand": 0,
                 "tab": rng.choice(15, n, p=_TAB_P),
             }
-        )  # fmt: skip
+        )
 
     std = draw(ui_std, vi_std, std_signals)
     date, hourmin, t = _times(rng, ui_std[:n1], "2022-04-08", 14)
@@ -483,26 +534,58 @@ def _statistics(rng, log: pd.DataFrame, video_ids: np.ndarray) -> pd.DataFrame:
     agg["play_cnt"] = g["is_click"].sum()
     agg["play_user_num"] = log[log["is_click"] == 1].groupby("video_id")["user_id"].nunique()
     agg["play_duration"] = g["play_time_ms"].sum()
-    agg["complete_play_cnt"] = (log["play_time_ms"] >= log["duration_ms"]).groupby(log["video_id"]).sum()
+    agg["complete_play_cnt"] = (
+        (log["play_time_ms"] >= log["duration_ms"]).groupby(log["video_id"]).sum()
+    )
     agg["valid_play_cnt"] = (log["play_time_ms"] >= 7_000).groupby(log["video_id"]).sum()
     agg["long_time_play_cnt"] = g["long_view"].sum()
-    agg["short_time_play_cnt"] = ((log["play_time_ms"] > 0) & (log["play_time_ms"] < 3_000)).groupby(log["video_id"]).sum()
-    for col, name in (("is_like", "like"), ("is_comment", "comment"), ("is_follow", "follow"),
-                      ("is_forward", "share"), ("is_hate", "reduce_similar")):  # fmt: skip
+    agg["short_time_play_cnt"] = (
+        ((log["play_time_ms"] > 0) & (log["play_time_ms"] < 3_000)).groupby(log["video_id"]).sum()
+    )
+    for col, name in (
+        ("is_like", "like"),
+        ("is_comment", "comment"),
+        ("is_follow", "follow"),
+        ("is_forward", "share"),
+        ("is_hate", "reduce_similar"),
+    ):
         agg[f"{name}_cnt"] = g[col].sum()
         agg[f"{name}_user_num"] = log[log[col] == 1].groupby("video_id")["user_id"].nunique()
     agg = agg.fillna(0) * _STAT_SCALE
     agg = agg.round().astype(np.int64)
-    agg["play_progress"] = (g["play_time_ms"].sum() / g["duration_ms"].sum()).reindex(video_ids).fillna(0).round(4)
+    agg["play_progress"] = (
+        (g["play_time_ms"].sum() / g["duration_ms"].sum()).reindex(video_ids).fillna(0).round(4)
+    )
     agg["report_cnt"] = rng.poisson(0.2 * agg["reduce_similar_cnt"] + 0.1)
     agg["collect_cnt"] = rng.poisson(0.3 * agg["like_cnt"] + 0.1)
     agg["counts"] = agg["show_cnt"]
     agg = agg.reset_index()
-    front = ["video_id", "counts", "show_cnt", "show_user_num", "play_cnt", "play_user_num",
-             "play_duration", "complete_play_cnt", "valid_play_cnt", "long_time_play_cnt",
-             "short_time_play_cnt", "play_progress", "like_cnt", "like_user_num", "comment_cnt",
-             "comment_user_num", "follow_cnt", "follow_user_num", "share_cnt", "share_user_num",
-             "report_cnt", "reduce_similar_cnt", "reduce_similar_user_num", "collect_cnt"]  # fmt: skip
+    front = [
+        "video_id",
+        "counts",
+        "show_cnt",
+        "show_user_num",
+        "play_cnt",
+        "play_user_num",
+        "play_duration",
+        "complete_play_cnt",
+        "valid_play_cnt",
+        "long_time_play_cnt",
+        "short_time_play_cnt",
+        "play_progress",
+        "like_cnt",
+        "like_user_num",
+        "comment_cnt",
+        "comment_user_num",
+        "follow_cnt",
+        "follow_user_num",
+        "share_cnt",
+        "share_user_num",
+        "report_cnt",
+        "reduce_similar_cnt",
+        "reduce_similar_user_num",
+        "collect_cnt",
+    ]
     return agg[front]
 
 
