@@ -146,7 +146,8 @@ def plot_fig2(fig2: dict, path: str) -> None:
                 label = "n/a" if np.isnan(m[i, j]) else f"{m[i, j]:+.1f}"
                 ax.text(j, i, label, ha="center", va="center", fontsize=7)
         ax.set_xticks(range(7), [c[1].split(" ")[0] for c in COLUMNS], rotation=45)
-        ax.set_yticks(range(7), [f"leans to {s}" for s in SIGNALS])
+        ax.set_xlabel("signal")
+        ax.set_yticks(range(7), [f"leans to {c[1].split(' ')[0][:-1]}" for c in COLUMNS])
         ax.set_title({"ncis": "NCIS estimate", "truth": "true value (response model)"}[kind])
         fig.colorbar(im, ax=ax, shrink=0.8, label="improvement over unified (%)")
     fig.suptitle(
