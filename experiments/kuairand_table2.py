@@ -21,7 +21,6 @@ line and exits 2 before anything is written.
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import resource
@@ -35,6 +34,7 @@ import numpy as np
 
 from wcac_jax.recsys import ncis as ncis_lib
 from wcac_jax.recsys import offline
+from wcac_jax.recsys.cli import ArgumentParser
 from wcac_jax.recsys.data import SIGNALS, DataError, Protocol, load
 from wcac_jax.recsys.synth import MODEL_FILE, ResponseModel
 
@@ -295,7 +295,7 @@ def run(data_dir: str, out: str, cfg: offline.OfflineConfig, seed: int, log=prin
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser = ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--data", required=True, help="a KuaiRand directory (real or synthetic)")
     parser.add_argument("--out", required=True, help="output directory")
     parser.add_argument("--quick", action="store_true", help="tiny settings (tests)")

@@ -152,11 +152,16 @@ def test_same_seed_same_data():
         (["--rows", "-5"], "--rows"),
         (["--seed", "-1"], "--seed"),
         (["--videos", "0"], "--videos"),
+        (["--users", "abc"], "--users"),
     ],
 )
 def test_cli_bad_input_one_line_exit_2_nothing_written(tmp_path, capsys, args, word):
     out = tmp_path / "out"
-    assert synth.main(["--out", str(out), *args]) == 2
+    try:
+        code = synth.main(["--out", str(out), *args])
+    except SystemExit as exit_:  # argparse's own errors (a non-integer) exit directly
+        code = exit_.code
+    assert code == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("error:") and word in err[0]
     assert not out.exists()

@@ -27,7 +27,6 @@ needs a number) raises `DataError` naming the file and column; on the command li
 
 from __future__ import annotations
 
-import argparse
 import glob
 import os
 import sys
@@ -38,6 +37,8 @@ import jax.numpy as jnp
 import numpy as np
 import pandas as pd
 from flax import struct
+
+from wcac_jax.recsys.cli import ArgumentParser
 
 LOG_FILE = "log_standard_4_08_to_4_21_27k_part1.csv"
 USER_FILE = "user_features_27k.csv"
@@ -365,7 +366,7 @@ def load(directory: str, config: ProtocolConfig = ProtocolConfig()) -> Protocol:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(
+    parser = ArgumentParser(
         prog="python -m wcac_jax.recsys.data",
         description="Check a KuaiRand directory and summarise the protocol's transitions.",
     )

@@ -34,13 +34,14 @@ Command line: `python -m wcac_jax.recsys.synth --out DIR [--users U --videos V -
 
 from __future__ import annotations
 
-import argparse
 import os
 import sys
 from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
+
+from wcac_jax.recsys.cli import ArgumentParser
 
 # KuaiRand-Pure standard logs (RECSYS.md §1); watch time: the protocol's test mean.
 PURE_RATES = {
@@ -608,7 +609,7 @@ def write(cfg: SynthConfig, out: str) -> ResponseModel:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(
+    parser = ArgumentParser(
         prog="python -m wcac_jax.recsys.synth", description=__doc__.split("\n\n")[0]
     )
     parser.add_argument("--out", required=True, help="output directory")
