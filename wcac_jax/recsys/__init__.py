@@ -3,6 +3,6 @@
 `synth` writes a synthetic data set in KuaiRand's file format with a known response
 model, `data` reads a KuaiRand directory (real or synthetic) and builds the benchmark's
 offline transitions, `offline` holds the offline actor-critics (the paper's method and
-the baselines) and Behavior-Clone, and `ncis` the off-policy evaluation. Nothing else in
-`wcac_jax` imports this package.
+the baselines) and Behavior-Clone, `ncis` the off-policy evaluation, and `cli` what the
+command lines share. Nothing else in `wcac_jax` imports this package.
 """
