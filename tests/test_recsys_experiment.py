@@ -1,0 +1,101 @@
+"""The Table 2 / Fig. 2 experiment end to end at `--quick`, and its bad input."""
+
+import json
+import math
+import os
+import sys
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from wcac_jax.recsys import synth
+from wcac_jax.recsys.data import SIGNALS, load
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(ROOT, "experiments"))
+
+import kuairand_table2  # noqa: E402
+
+METHODS = (
+    "Behavior-Clone",
+    "MOAC (linear)",
+    "MOCHA (linear)",
+    "PDPG (DNN)",
+    "wcac (DNN, the paper's method)",
+)
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory):
+    data = str(tmp_path_factory.mktemp("kuairand"))
+    synth.write(synth.SynthConfig(users=40, videos=200, rows=4000, seed=2), data)
+    out = str(tmp_path_factory.mktemp("out") / "table2")
+    assert kuairand_table2.main(["--data", data, "--out", out, "--quick"]) == 0
+    return data, out
+
+
+def test_table_json_schema(run):
+    _, out = run
+    table = json.load(open(os.path.join(out, "table.json")))
+    assert set(table["methods"]) == set(METHODS)
+    for name, row in table["methods"].items():
+        assert set(row) == {"ncis", "vs_bc", "truth"}, name
+        for part in ("ncis", "truth"):
+            assert list(row[part]) == list(SIGNALS)
+            assert all(math.isfinite(v) for v in row[part].values())
+        assert list(row["vs_bc"]) == list(SIGNALS)
+    bc = table["methods"]["Behavior-Clone"]
+    assert all(v in (0.0, None) for v in bc["vs_bc"].values())
+    for row in table["methods"].values():  # percent = 100 (x - bc) / |bc|
+        for s in SIGNALS:
+            if bc["ncis"][s] != 0:
+                want = 100 * (row["ncis"][s] - bc["ncis"][s]) / abs(bc["ncis"][s])
+                assert row["vs_bc"][s] == pytest.approx(want)
+
+
+def test_behavior_clone_scores_the_logged_test_means(run):
+    data_dir, out = run
+    table = json.load(open(os.path.join(out, "table.json")))
+    data = load(data_dir)
+    logged = np.asarray(data.reward[data.n_train :]).mean(0)
+    got = [table["methods"]["Behavior-Clone"]["ncis"][s] for s in SIGNALS]
+    np.testing.assert_allclose(got, logged, atol=1e-6)
+
+
+def test_markdown_figure_and_run_record(run):
+    _, out = run
+    md = open(os.path.join(out, "table.md")).read().splitlines()
+    assert md[0].startswith("| | Click↑ | Like↑ (e-2)") and len(md) == 2 + len(METHODS) + 1
+    for name in METHODS:
+        assert any(line.startswith(f"| {name} |") for line in md)
+    assert os.path.getsize(os.path.join(out, "fig2.png")) > 10_000
+    fig2 = json.load(open(os.path.join(out, "fig2.json")))
+    assert np.array(fig2["values"]["ncis"]["leaning"]).shape == (7, 7)
+    assert len(fig2["improvement"]["truth"]) == 7
+    info = json.load(open(os.path.join(out, "run.json")))
+    assert info["state_dim"] == 1044 and info["synthetic"] is True
+    assert info["seconds"]["total"] > 0
+
+
+def test_bad_input_one_line_exit_2_nothing_written(tmp_path, capsys, run):
+    data_dir, _ = run
+    out = tmp_path / "out"
+    assert (
+        kuairand_table2.main(["--data", str(tmp_path / "nope"), "--out", str(out), "--quick"]) == 2
+    )
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("error:") and "nope" in err[0]
+    assert not out.exists()
+    broken = tmp_path / "broken"
+    os.makedirs(broken)
+    for name in os.listdir(data_dir):
+        df_path = os.path.join(data_dir, name)
+        if name == synth.FILES["video_basic"]:
+            pd.read_csv(df_path).drop(columns=["music_type"]).to_csv(broken / name, index=False)
+        elif not name.endswith(".npz"):
+            os.symlink(df_path, broken / name)
+    assert kuairand_table2.main(["--data", str(broken), "--out", str(out), "--quick"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "video_features_basic_27k.csv" in err[0] and "music_type" in err[0]
+    assert not out.exists()
