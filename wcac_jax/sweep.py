@@ -202,6 +202,7 @@ def check_output_dir(out: str, config: SweepConfig, resume: bool) -> None:
             raise SweepError(f"--resume: no sweep to resume in {out!r} (no config.json)")
         with open(path) as f:
             saved = _flatten(json.load(f))
+        saved.pop("device_count", None)
         new = _flatten(json.loads(_json_bytes(config.to_dict())))
         differ = sorted(k for k in set(saved) | set(new) if saved.get(k) != new.get(k))
         if differ:
@@ -415,7 +416,10 @@ def run_sweep(
 
         os.makedirs(out, exist_ok=True)
         if not resume:
-            _write_atomic(os.path.join(out, "config.json"), _json_bytes(config.to_dict()))
+            # the device count is recorded beside the config: results are bit-identical
+            # for the same config and device count (see README, "Reproducibility")
+            saved = {**config.to_dict(), "device_count": n_dev}
+            _write_atomic(os.path.join(out, "config.json"), _json_bytes(saved))
         manager = ocp.CheckpointManager(
             os.path.abspath(os.path.join(out, "checkpoint")),
             options=ocp.CheckpointManagerOptions(
@@ -641,6 +645,12 @@ def build_parser() -> argparse.ArgumentParser:
         "--physics", default=None, help="walker2d physics: brax (fast, default) or gymnasium-v5"
     )
     p.add_argument(
+        "--engine",
+        default=None,
+        help="walker2d physics engine: mjx (default; for accelerators) or mujoco (MuJoCo's "
+        "C engine, multi-threaded; several times faster on a CPU)",
+    )
+    p.add_argument(
         "--episode-length",
         type=int,
         default=None,
@@ -714,6 +724,8 @@ def config_from_args(args) -> SweepConfig:
         env_options["physics"] = args.physics
     if args.episode_length is not None:
         env_options["episode_length"] = args.episode_length
+    if args.engine is not None:
+        env_options["engine"] = args.engine
     try:
         train = TrainConfig(
             num_envs=args.envs_per_pref,
@@ -748,8 +760,33 @@ def config_from_args(args) -> SweepConfig:
     )
 
 
-def main(argv=None) -> int:
+def use_every_core() -> str:
+    """Unless the user set `XLA_FLAGS`, splits the host CPU into one XLA device per core
+    (the preference axis is sharded over devices, so every core trains). Only before JAX
+    initialises its backend (the device count is fixed then). Returns a line saying what
+    was done."""
+    from jax._src import xla_bridge
+
+    if xla_bridge.backends_are_initialized():
+        return f"[sweep] JAX already initialised: {jax.device_count()} device(s)"
+    if "XLA_FLAGS" in os.environ:
+        return f"[sweep] XLA_FLAGS={os.environ['XLA_FLAGS']!r} (yours): devices as it says"
+    cores = os.cpu_count() or 1
+    os.environ["XLA_FLAGS"] = f"--xla_force_host_platform_device_count={cores}"
+    return (
+        f"[sweep] {cores} host devices, one per core (XLA_FLAGS={os.environ['XLA_FLAGS']}; "
+        "set XLA_FLAGS to choose otherwise)"
+    )
+
+
+def main(argv=None, *, every_core: bool = False) -> int:
+    """The command line (`every_core=True` from `python -m wcac_jax.sweep`: one host device
+    per core unless `XLA_FLAGS` is set, said on the first line; see `use_every_core`)."""
     args = build_parser().parse_args(argv)
+    if every_core:
+        note = use_every_core()
+        if not args.quiet:
+            print(note, file=sys.stderr, flush=True)
     try:
         config = config_from_args(args)
         out = args.out or os.path.join("runs", time.strftime("%Y%m%d-%H%M%S"))
@@ -778,7 +815,7 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(main(every_core=True))
 
 
 __all__ = [
