@@ -79,7 +79,8 @@ def _gymnasium_states(n_states, seed=0):
 def test_mujoco_engine_matches_mo_walker2d_v5():
     """One step from the same float64 (qpos, qvel) and action matches mo-walker2d-v5 to
     1e-5: it is the same C engine with the same model and solver, so what is left is the
-    float32 rounding of observations and rewards (measured max 4.8e-7)."""
+    float32 rounding of observations and rewards (measured max 4.6e-7 on observations,
+    4.8e-7 on rewards; 68 of the 320 steps terminate)."""
     genv, states, actions = _gymnasium_states(320)
     reference = []
     for (qpos, qvel), action in zip(states, actions, strict=True):

@@ -760,18 +760,22 @@ def config_from_args(args) -> SweepConfig:
     )
 
 
-def use_every_core() -> str:
-    """Unless the user set `XLA_FLAGS`, splits the host CPU into one XLA device per core
-    (the preference axis is sharded over devices, so every core trains). Only before JAX
-    initialises its backend (the device count is fixed then). Returns a line saying what
-    was done."""
+def use_every_core(engine: str | None = None) -> str:
+    """Keeps every core busy; returns a line saying how. Unless the user set `XLA_FLAGS`,
+    splits the host CPU into one XLA device per core (the preference axis is sharded over
+    devices, so every core trains) — except with `engine="mujoco"`, whose C engine
+    already steps on one thread per core: its host callback takes the whole batch on one
+    device, and XLA warns at length about gathering a sharded batch for it. Only before JAX
+    initialises its backend (the device count is fixed then)."""
     from jax._src import xla_bridge
 
+    cores = os.cpu_count() or 1
     if xla_bridge.backends_are_initialized():
         return f"[sweep] JAX already initialised: {jax.device_count()} device(s)"
     if "XLA_FLAGS" in os.environ:
         return f"[sweep] XLA_FLAGS={os.environ['XLA_FLAGS']!r} (yours): devices as it says"
-    cores = os.cpu_count() or 1
+    if engine == "mujoco":
+        return f"[sweep] engine mujoco: MuJoCo steps on {cores} threads, one per core"
     os.environ["XLA_FLAGS"] = f"--xla_force_host_platform_device_count={cores}"
     return (
         f"[sweep] {cores} host devices, one per core (XLA_FLAGS={os.environ['XLA_FLAGS']}; "
@@ -784,7 +788,7 @@ def main(argv=None, *, every_core: bool = False) -> int:
     per core unless `XLA_FLAGS` is set, said on the first line; see `use_every_core`)."""
     args = build_parser().parse_args(argv)
     if every_core:
-        note = use_every_core()
+        note = use_every_core(args.engine)
         if not args.quiet:
             print(note, file=sys.stderr, flush=True)
     try:
