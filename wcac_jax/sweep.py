@@ -30,7 +30,7 @@ import os
 import sys
 import tempfile
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import NamedTuple
 
 import jax
@@ -81,6 +81,10 @@ class SweepConfig:
       seed: base seed; preference `i` uses `fold_in(key(seed), i)`.
       eval_episodes: episodes of the mean policy evaluated per preference at the end.
       hv_ref: hypervolume reference point (`None`: the environment's default).
+      device_count: devices the preference axis is sharded over (`None`: every device
+        JAX has; `run_sweep` records the count it used). Results are bit-identical for
+        the same config, device count included, and any chunking; across device counts
+        they differ by rounding (XLA compiles different per-device batch shapes).
     """
 
     prefs: tuple[tuple[float, ...], ...]
@@ -91,6 +95,7 @@ class SweepConfig:
     seed: int = 0
     eval_episodes: int = 8
     hv_ref: tuple[float, ...] | None = None
+    device_count: int | None = None
 
     @property
     def num_iterations(self) -> int:
@@ -110,6 +115,7 @@ class SweepConfig:
             "seed": self.seed,
             "eval_episodes": self.eval_episodes,
             "hv_ref": None if self.hv_ref is None else list(self.hv_ref),
+            "device_count": self.device_count,
         }
 
     @classmethod
@@ -129,6 +135,7 @@ class SweepConfig:
             seed=int(d["seed"]),
             eval_episodes=int(d["eval_episodes"]),
             hv_ref=None if d["hv_ref"] is None else tuple(d["hv_ref"]),
+            device_count=d.get("device_count"),
         )
 
 
@@ -202,8 +209,9 @@ def check_output_dir(out: str, config: SweepConfig, resume: bool) -> None:
             raise SweepError(f"--resume: no sweep to resume in {out!r} (no config.json)")
         with open(path) as f:
             saved = _flatten(json.load(f))
-        saved.pop("device_count", None)
         new = _flatten(json.loads(_json_bytes(config.to_dict())))
+        if "device_count" not in saved:  # written before the device count was recorded
+            new.pop("device_count", None)
         differ = sorted(k for k in set(saved) | set(new) if saved.get(k) != new.get(k))
         if differ:
             details = ", ".join(f"{k} (saved {saved.get(k)!r}, now {new.get(k)!r})" for k in differ)
@@ -361,6 +369,14 @@ def run_sweep(
       SweepError: bad input (nothing written).
       TrainingDiverged: NaN during training (the last good checkpoint is kept).
     """
+    if config.device_count is None:
+        config = replace(config, device_count=jax.device_count())
+    elif config.device_count != jax.device_count():
+        raise SweepError(
+            f"device_count {config.device_count}, but JAX has {jax.device_count()} device(s) "
+            f"(on a CPU: XLA_FLAGS=--xla_force_host_platform_device_count="
+            f"{config.device_count} before JAX starts)"
+        )
     env = _make_env(config)
     m = int(env.num_objectives)
     prefs = validate_prefs(config.prefs, m)
@@ -416,10 +432,7 @@ def run_sweep(
 
         os.makedirs(out, exist_ok=True)
         if not resume:
-            # the device count is recorded beside the config: results are bit-identical
-            # for the same config and device count (see README, "Reproducibility")
-            saved = {**config.to_dict(), "device_count": n_dev}
-            _write_atomic(os.path.join(out, "config.json"), _json_bytes(saved))
+            _write_atomic(os.path.join(out, "config.json"), _json_bytes(config.to_dict()))
         manager = ocp.CheckpointManager(
             os.path.abspath(os.path.join(out, "checkpoint")),
             options=ocp.CheckpointManagerOptions(
