@@ -784,14 +784,14 @@ def use_every_core(engine: str | None = None) -> str:
 
     cores = os.cpu_count() or 1
     if xla_bridge.backends_are_initialized():
-        return f"[sweep] JAX already initialised: {jax.device_count()} device(s)"
+        return f"[devices] JAX already initialised: {jax.device_count()} device(s)"
     if "XLA_FLAGS" in os.environ:
-        return f"[sweep] XLA_FLAGS={os.environ['XLA_FLAGS']!r} (yours): devices as it says"
+        return f"[devices] XLA_FLAGS={os.environ['XLA_FLAGS']!r} (yours): devices as it says"
     if engine == "mujoco":
-        return f"[sweep] engine mujoco: MuJoCo steps on {cores} threads, one per core"
+        return f"[devices] engine mujoco: MuJoCo steps on {cores} threads, one per core"
     os.environ["XLA_FLAGS"] = f"--xla_force_host_platform_device_count={cores}"
     return (
-        f"[sweep] {cores} host devices, one per core (XLA_FLAGS={os.environ['XLA_FLAGS']}; "
+        f"[devices] {cores} host devices, one per core (XLA_FLAGS={os.environ['XLA_FLAGS']}; "
         "set XLA_FLAGS to choose otherwise)"
     )
 
