@@ -288,14 +288,11 @@ def run_grid(args, out: str) -> dict:
                     row = json.load(f)
                 os.unlink(row_out)
                 row["process_wall_s"] = time.perf_counter() - start
+                row["load_average_after"] = os.getloadavg()
                 rows.append(row)
-    result = {
-        "machine": f"{platform.machine()}, {os.cpu_count()} CPUs",
-        "load_average_at_end": os.getloadavg(),
-        "rows": rows,
-    }
-    with open(out, "w") as f:
-        json.dump(result, f, indent=2)
+                result = {"machine": f"{platform.machine()}, {os.cpu_count()} CPUs", "rows": rows}
+                with open(out, "w") as f:  # after every row: a stopped grid keeps its rows
+                    json.dump(result, f, indent=2)
     print(f"wrote {out}")
     return result
 
