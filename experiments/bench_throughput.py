@@ -9,12 +9,19 @@ At the same batch (`P` preferences x `N` environments), measures after compilati
   (c) what a user without this engine would run: `P` single-preference trainings
       (`jit(train chunk)` on one preference), one after another;
 
-and prints env-steps/s of each, the ratios (b)/(a) and (b)/(c), compile times, peak host
-memory and (on a GPU) peak device memory; the same goes to a JSON file. It asserts
-nothing about speed.
+and prints env-steps/s of each, the ratios (b)/(a) and (b)/(c), compile times, how many
+cores were busy while each ran (process CPU time / wall time), how an env step's time
+splits between the physics (a) and the networks ((b) minus (a)), peak host memory and (on
+a GPU) peak device memory; the same goes to a JSON file (`--out`, default
+`runs/bench_throughput-<time>.json`). It asserts nothing about speed.
+
+`--grid` runs one subprocess per engine x physics x `N` (each its own peak memory, all
+with the paper's networks), and writes all rows to one JSON.
 
     python experiments/bench_throughput.py                  # default sweep size
     python experiments/bench_throughput.py --quick          # < 5 minutes on a 2-core CPU
+    python experiments/bench_throughput.py --engine mujoco --physics gymnasium-v5
+    python experiments/bench_throughput.py --grid --out experiments/results/bench_engines_cpu.json
     python experiments/bench_throughput.py --prefs 9 --envs-per-pref 1024   # on a GPU
 """
 
@@ -26,6 +33,7 @@ import json
 import os
 import platform
 import resource
+import subprocess
 import sys
 import time
 
@@ -37,11 +45,22 @@ from wcac_jax.config import TrainConfig
 from wcac_jax.envs.wrappers import EpisodeWrapper
 from wcac_jax.train import make_trainer
 
+_LAST_CORES = {}
+
+
+def _cpu_s() -> float:
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    return usage.ru_utime + usage.ru_stime
+
 
 def _timed(fn, *args):
-    start = time.perf_counter()
+    """`fn(*args)` to completion; its wall time. The cores it kept busy (process CPU time
+    over wall time, rollout threads included) go to `_LAST_CORES["busy"]`."""
+    cpu, start = _cpu_s(), time.perf_counter()
     out = jax.block_until_ready(fn(*args))
-    return out, time.perf_counter() - start
+    wall = time.perf_counter() - start
+    _LAST_CORES["busy"] = (_cpu_s() - cpu) / max(wall, 1e-9)
+    return out, wall
 
 
 def _compile(jitted, *args):
@@ -66,7 +85,12 @@ def bench_raw(env, batch: int, steps: int) -> dict:
     fn, compile_s = _compile(jax.jit(rollout), state, jax.random.key(1))
     _timed(fn, state, jax.random.key(2))  # warm-up
     _, run_s = _timed(fn, state, jax.random.key(3))
-    return {"env_steps_per_s": batch * steps / run_s, "compile_s": compile_s, "run_s": run_s}
+    return {
+        "env_steps_per_s": batch * steps / run_s,
+        "compile_s": compile_s,
+        "run_s": run_s,
+        "cores_busy": _LAST_CORES["busy"],
+    }
 
 
 def bench_sweep(trainer, config, prefs, iters: int) -> dict:
@@ -78,7 +102,12 @@ def bench_sweep(trainer, config, prefs, iters: int) -> dict:
     (state, _), _ = _timed(fn, state, prefs)  # warm-up chunk (moves off the start state)
     _, run_s = _timed(fn, state, prefs)
     steps = prefs.shape[0] * iters * config.env_steps_per_iteration
-    return {"env_steps_per_s": steps / run_s, "compile_s": compile_s, "run_s": run_s}
+    return {
+        "env_steps_per_s": steps / run_s,
+        "compile_s": compile_s,
+        "run_s": run_s,
+        "cores_busy": _LAST_CORES["busy"],
+    }
 
 
 def bench_sequential(trainer, config, prefs, iters: int) -> dict:
@@ -106,6 +135,19 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--env", default="walker2d")
     parser.add_argument("--physics", default="brax", help="walker2d physics")
+    parser.add_argument("--engine", default="mjx", help="walker2d engine: mjx or mujoco")
+    parser.add_argument(
+        "--devices",
+        type=int,
+        default=None,
+        help="host devices (sets XLA_FLAGS before JAX starts; default: JAX's own, 1 on CPU); "
+        "the sweep (b) is not sharded, so this only changes how XLA runs",
+    )
+    parser.add_argument(
+        "--grid",
+        action="store_true",
+        help="every engine x physics at N = 16 and 128 (P = --prefs), one subprocess each",
+    )
     parser.add_argument("--prefs", type=int, default=9, help="P")
     parser.add_argument("--envs-per-pref", type=int, default=16, help="N")
     parser.add_argument("--critic-steps", type=int, default=10, help="K")
@@ -116,13 +158,20 @@ def main(argv=None):
     parser.add_argument("--iterations", type=int, default=20, help="timed iterations")
     parser.add_argument("--quick", action="store_true", help="small sizes, < 5 min on CPU")
     parser.add_argument("--skip", nargs="*", default=[], choices=["raw", "sweep", "sequential"])
-    parser.add_argument("--out", default="bench_throughput.json")
+    parser.add_argument(
+        "--out", default=None, help="JSON file (default: runs/bench_throughput-<time>.json)"
+    )
     args = parser.parse_args(argv)
+    out = args.out or os.path.join("runs", time.strftime("bench_throughput-%Y%m%d-%H%M%S.json"))
+    if args.grid:
+        return run_grid(args, out)
+    if args.devices is not None:
+        os.environ["XLA_FLAGS"] = f"--xla_force_host_platform_device_count={args.devices}"
     if args.quick:
         args.prefs, args.envs_per_pref, args.iterations = min(args.prefs, 3), 4, 3
         args.width, args.critic_steps, args.rollout_steps = 64, 4, 4
 
-    env_kwargs = {"physics": args.physics} if args.env == "walker2d" else {}
+    env_kwargs = {"physics": args.physics, "engine": args.engine} if args.env == "walker2d" else {}
     env = envs.make(args.env, **env_kwargs)
     config = TrainConfig(
         num_envs=args.envs_per_pref,
@@ -145,6 +194,8 @@ def main(argv=None):
         "jax": jax.__version__,
         "env": args.env,
         "physics": args.physics if args.env == "walker2d" else None,
+        "engine": args.engine if args.env == "walker2d" else None,
+        "device_count": jax.device_count(),
         "P": args.prefs,
         "N": args.envs_per_pref,
         "K": args.critic_steps,
@@ -175,6 +226,13 @@ def main(argv=None):
         return None
 
     result["sweep_over_raw"] = ratio("sweep", "raw")
+    if result.get("raw") and result.get("sweep"):
+        # an env step's time in the sweep: the physics' (raw stepping) + the networks' rest
+        physics_ms = 1e3 / result["raw"]["env_steps_per_s"]
+        result["ms_per_env_step"] = {
+            "physics": physics_ms,
+            "networks": 1e3 / result["sweep"]["env_steps_per_s"] - physics_ms,
+        }
     result["sweep_over_sequential"] = ratio("sweep", "sequential")
     result["peak_host_memory_gib"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20
     stats = jax.devices()[0].memory_stats() or {}
@@ -188,8 +246,54 @@ def main(argv=None):
         f"peak host memory {result['peak_host_memory_gib']:.2f} GiB    "
         f"peak device memory {fmt(result['peak_device_memory_gib'])} GiB"
     )
-    with open(args.out, "w") as f:
+    os.makedirs(os.path.dirname(os.path.abspath(out)), exist_ok=True)
+    with open(out, "w") as f:
         json.dump(result, f, indent=2)
+    return result
+
+
+GRID_ENGINES = ("mjx", "mujoco")
+GRID_PHYSICS = ("brax", "gymnasium-v5")
+GRID_N = (16, 128)
+
+
+def run_grid(args, out: str) -> dict:
+    """One subprocess per engine x physics x N (so each row has its own compile and
+    peak memory); raw stepping and the sweep, no sequential baseline. Timed iterations:
+    `--iterations` at N = 16, a quarter of them (at least 2) at N = 128."""
+    rows = []
+    directory = os.path.dirname(os.path.abspath(out))
+    os.makedirs(directory, exist_ok=True)
+    for n in GRID_N:
+        iters = args.iterations if n == GRID_N[0] else max(2, args.iterations // 4)
+        for physics in GRID_PHYSICS:
+            for engine in GRID_ENGINES:
+                row_out = os.path.join(directory, f".grid-{engine}-{physics}-{n}.json")
+                cmd = [
+                    sys.executable,
+                    os.path.abspath(__file__),
+                    *("--engine", engine, "--physics", physics, "--prefs", str(args.prefs)),
+                    *("--envs-per-pref", str(n), "--iterations", str(iters)),
+                    *("--critic-steps", str(args.critic_steps)),
+                    *("--rollout-steps", str(args.rollout_steps)),
+                    *("--width", str(args.width), "--depth", str(args.depth)),
+                    *("--network", args.network, "--skip", "sequential", "--out", row_out),
+                ]
+                if args.devices is not None:
+                    cmd += ["--devices", str(args.devices)]
+                print(f"== {engine} / {physics} / P x N = {args.prefs} x {n}", flush=True)
+                start = time.perf_counter()
+                subprocess.run(cmd, check=True)
+                with open(row_out) as f:
+                    row = json.load(f)
+                os.unlink(row_out)
+                row["process_wall_s"] = time.perf_counter() - start
+                row["load_average_after"] = os.getloadavg()
+                rows.append(row)
+                result = {"machine": f"{platform.machine()}, {os.cpu_count()} CPUs", "rows": rows}
+                with open(out, "w") as f:  # after every row: a stopped grid keeps its rows
+                    json.dump(result, f, indent=2)
+    print(f"wrote {out}")
     return result
 
 

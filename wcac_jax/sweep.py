@@ -30,7 +30,7 @@ import os
 import sys
 import tempfile
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import NamedTuple
 
 import jax
@@ -88,6 +88,10 @@ class SweepConfig:
       seed: base seed; preference `i` uses `fold_in(key(seed), i)`.
       eval_episodes: episodes of the mean policy evaluated per preference at the end.
       hv_ref: hypervolume reference point (`None`: the environment's default).
+      device_count: devices the preference axis is sharded over (`None`: every device
+        JAX has; `run_sweep` records the count it used). Results are bit-identical for
+        the same config, device count included, and any chunking; across device counts
+        they differ by rounding (XLA compiles different per-device batch shapes).
     """
 
     prefs: tuple[tuple[float, ...], ...]
@@ -98,6 +102,7 @@ class SweepConfig:
     seed: int = 0
     eval_episodes: int = 8
     hv_ref: tuple[float, ...] | None = None
+    device_count: int | None = None
 
     def __post_init__(self):
         for name in ("steps_per_pref", "eval_episodes"):
@@ -139,6 +144,7 @@ class SweepConfig:
             "seed": self.seed,
             "eval_episodes": self.eval_episodes,
             "hv_ref": None if self.hv_ref is None else list(self.hv_ref),
+            "device_count": self.device_count,
         }
 
     @classmethod
@@ -158,6 +164,7 @@ class SweepConfig:
             seed=int(d["seed"]),
             eval_episodes=int(d["eval_episodes"]),
             hv_ref=None if d["hv_ref"] is None else tuple(d["hv_ref"]),
+            device_count=d.get("device_count"),
         )
 
 
@@ -254,6 +261,8 @@ def check_output_dir(out: str, config: SweepConfig, resume: bool) -> None:
             raise SweepError(f"--resume: {path!r} holds no sweep config (a {type(saved).__name__})")
         saved = _flatten(saved)
         new = _flatten(json.loads(_json_bytes(config.to_dict())))
+        if "device_count" not in saved:  # written before the device count was recorded
+            new.pop("device_count", None)
         differ = sorted(k for k in set(saved) | set(new) if saved.get(k) != new.get(k))
         if differ:
             details = ", ".join(f"{k} (saved {saved.get(k)!r}, now {new.get(k)!r})" for k in differ)
@@ -419,6 +428,14 @@ def run_sweep(
       SweepError: bad input (nothing written).
       TrainingDiverged: NaN during training (the last good checkpoint is kept).
     """
+    if config.device_count is None:
+        config = replace(config, device_count=jax.device_count())
+    elif config.device_count != jax.device_count():
+        raise SweepError(
+            f"device_count {config.device_count}, but JAX has {jax.device_count()} device(s) "
+            f"(on a CPU: XLA_FLAGS=--xla_force_host_platform_device_count="
+            f"{config.device_count} before JAX starts)"
+        )
     env = _make_env(config)
     m = int(env.num_objectives)
     prefs = validate_prefs(config.prefs, m)
@@ -721,6 +738,12 @@ def build_parser() -> argparse.ArgumentParser:
         "--physics", default=None, help="walker2d physics: brax (fast, default) or gymnasium-v5"
     )
     p.add_argument(
+        "--engine",
+        default=None,
+        help="walker2d physics engine: mjx (default; for accelerators) or mujoco (MuJoCo's "
+        "C engine, multi-threaded; several times faster on a CPU)",
+    )
+    p.add_argument(
         "--episode-length",
         type=int,
         default=None,
@@ -799,6 +822,8 @@ def config_from_args(args) -> SweepConfig:
         env_options["physics"] = args.physics
     if args.episode_length is not None:
         env_options["episode_length"] = args.episode_length
+    if args.engine is not None:
+        env_options["engine"] = args.engine
     try:
         train = TrainConfig(
             num_envs=args.envs_per_pref,
@@ -829,8 +854,37 @@ def config_from_args(args) -> SweepConfig:
     )
 
 
-def main(argv=None) -> int:
+def use_every_core(engine: str | None = None) -> str:
+    """Keeps every core busy; returns a line saying how. Unless the user set `XLA_FLAGS`,
+    splits the host CPU into one XLA device per core (the preference axis is sharded over
+    devices, so every core trains) — except with `engine="mujoco"`, whose C engine
+    already steps on one thread per core: its host callback takes the whole batch on one
+    device, and XLA warns at length about gathering a sharded batch for it. Only before JAX
+    initialises its backend (the device count is fixed then)."""
+    from jax._src import xla_bridge
+
+    cores = os.cpu_count() or 1
+    if xla_bridge.backends_are_initialized():
+        return f"[devices] JAX already initialised: {jax.device_count()} device(s)"
+    if "XLA_FLAGS" in os.environ:
+        return f"[devices] XLA_FLAGS={os.environ['XLA_FLAGS']!r} (yours): devices as it says"
+    if engine == "mujoco":
+        return f"[devices] engine mujoco: MuJoCo steps on {cores} threads, one per core"
+    os.environ["XLA_FLAGS"] = f"--xla_force_host_platform_device_count={cores}"
+    return (
+        f"[devices] {cores} host devices, one per core (XLA_FLAGS={os.environ['XLA_FLAGS']}; "
+        "set XLA_FLAGS to choose otherwise)"
+    )
+
+
+def main(argv=None, *, every_core: bool = False) -> int:
+    """The command line (`every_core=True` from `python -m wcac_jax.sweep`: one host device
+    per core unless `XLA_FLAGS` is set, said on the first line; see `use_every_core`)."""
     args = build_parser().parse_args(argv)
+    if every_core:
+        note = use_every_core(args.engine)
+        if not args.quiet:
+            print(note, file=sys.stderr, flush=True)
     try:
         config = config_from_args(args)
         out = args.out or os.path.join("runs", time.strftime("%Y%m%d-%H%M%S"))
@@ -867,7 +921,7 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(main(every_core=True))
 
 
 __all__ = [

@@ -11,11 +11,29 @@ here imports training code.
 
 from __future__ import annotations
 
+import contextlib
 import importlib
 import inspect
+import io
 from collections.abc import Callable
 
-from wcac_jax.envs.wrappers import EpisodeWrapper
+
+def _import_mjx_quietly() -> None:
+    """Imports `mujoco.mjx` (which Brax imports) without its two lines "Failed to import
+    warp: No module named 'warp'" / "Failed to import mujoco_warp: ...": they say only
+    that the optional NVIDIA Warp backend (GPU-only, unused here) is not installed. Any
+    other output of the import, a different Warp failure included, is printed."""
+    captured = io.StringIO()
+    with contextlib.redirect_stdout(captured):
+        import mujoco.mjx  # noqa: F401
+    for line in captured.getvalue().splitlines():
+        if not (line.startswith("Failed to import") and line.endswith("No module named 'warp'")):
+            print(line)
+
+
+_import_mjx_quietly()
+
+from wcac_jax.envs.wrappers import EpisodeWrapper  # noqa: E402
 
 # name -> "module:attribute"; imported lazily so that MJX loads only when it is used.
 _REGISTRY: dict[str, str] = {

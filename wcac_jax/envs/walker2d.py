@@ -1,7 +1,7 @@
-"""Multi-objective Walker2d on MJX (MuJoCo XLA), with the semantics of MO-Gymnasium's
-`mo-walker2d-v5`.
+"""Multi-objective Walker2d with the semantics of MO-Gymnasium's `mo-walker2d-v5`: the
+model, the objectives and the health check; a physics engine (`engines`) steps it.
 
-A Brax `PipelineEnv` on the `mjx` backend. One step applies the action (6 torques in
+A Brax-style `Env` (`reset`, `step`, one unbatched copy). One step applies the action (6 torques in
 `[-1, 1]`) for 4 physics substeps of 0.002 s (`dt = 0.008`), and returns
 
 - observation (17): `qpos[1:]` (torso height and angle, 6 joint angles) and
@@ -25,19 +25,30 @@ Two physics models (`physics=`):
   iterations, right-foot friction 0.9), MJX's default line search.
 - `"gymnasium-v5"`: Gymnasium's `walker2d_v5.xml`, shipped in `assets/` with its MIT
   notice (RK4 integrator, friction 1.9 on both feet): the model the paper and
-  MO-Gymnasium use. Its solver is capped at 4 iterations and 4 line-search iterations
-  (MuJoCo's defaults are 100 and 50). Measured on the 2-core CPU with
-  `experiments/bench_env.py`, the cap makes MJX 2.3-4.7x faster (batch 16: 1,386 vs
-  604 env-steps/s; batch 1,024: 1,634 vs 347) and costs no measurable fidelity: MuJoCo's
-  Newton solver converges within a few iterations on this model, so `qpos` under the
-  same random actions is bit-identical for 50 steps and within 1.4e-6 after 100, and the
-  one-step conformance test against `mo_gymnasium.make("mo-walker2d-v5")` passes with
-  the cap (positions within 5.5e-6, velocities within 1e-4 on 99% of 320 states and
-  6.6e-4 at worst, rewards within 4.8e-5).
-  `solver_iterations=100, ls_iterations=50` restores MuJoCo's settings.
+  MO-Gymnasium use. On MJX its solver is capped at 4 iterations and 4 line-search
+  iterations (MuJoCo's defaults are 100 and 50; the `"mujoco"` engine keeps those).
+  Measured on the 2-core CPU with `experiments/bench_env.py`, the cap makes MJX
+  2.3-4.7x faster (batch 16: 1,386 vs 604 env-steps/s; batch 1,024: 1,634 vs 347) and
+  costs no measurable fidelity: MuJoCo's Newton solver converges within a few
+  iterations on this model, so `qpos` under the same random actions is bit-identical
+  for 50 steps and within 1.4e-6 after 100, and the one-step conformance test against
+  `mo_gymnasium.make("mo-walker2d-v5")` passes with the cap (positions within 5.5e-6,
+  velocities within 1e-4 on 99% of 320 states and 6.6e-4 at worst, rewards within
+  4.8e-5). `solver_iterations=100, ls_iterations=50` restores MuJoCo's settings.
 
 `"brax"` and `"gymnasium-v5"` are different models: from the same state under the same
 random actions their `qpos` differ by 0.009 after one step and by ~1 after 100 steps.
+
+Two engines (`engine=`), either model with either engine (`engines` explains them):
+
+- `"mjx"` (default): MJX in float32 through Brax's MJX pipeline; the path for
+  accelerators.
+- `"mujoco"`: MuJoCo's C engine in float64, every environment of a step in one
+  multi-threaded `mujoco.rollout` call from inside the compiled program; several times
+  faster on a CPU. It keeps the model's own solver settings (for `"gymnasium-v5"`:
+  MuJoCo's 100 iterations and 50 line-search iterations, as MO-Gymnasium), so with
+  `physics="gymnasium-v5"` it is MO-Gymnasium's environment up to float32 rounding of
+  observations and rewards.
 """
 
 from __future__ import annotations
@@ -47,8 +58,10 @@ import os
 import jax
 import jax.numpy as jnp
 import mujoco
-from brax.envs.base import PipelineEnv, State
-from brax.io import mjcf
+from brax.envs.base import Env, State
+
+from wcac_jax.envs import engines
+from wcac_jax.envs.engines import ENGINES
 
 PHYSICS = ("brax", "gymnasium-v5")
 OBJECTIVE_NAMES = ("forward_velocity", "control")
@@ -78,17 +91,18 @@ def load_mj_model(
     return model
 
 
-class Walker2d(PipelineEnv):
-    """Multi-objective Walker2d on MJX; see the module docstring.
+class Walker2d(Env):
+    """Multi-objective Walker2d; see the module docstring.
 
     Args:
       physics: `"brax"` or `"gymnasium-v5"`.
       episode_length: time limit in steps, `>= 1` (applied by `EpisodeWrapper`).
+      engine: `"mjx"` or `"mujoco"`.
       reset_noise_scale: half-width of the uniform reset noise.
-      solver_iterations: MuJoCo's `opt.iterations` (`None`: 4 for `"gymnasium-v5"`, the
-        model's own 4 for `"brax"`).
-      ls_iterations: MuJoCo's `opt.ls_iterations` (`None`: 4 for `"gymnasium-v5"`, the
-        model's own for `"brax"`).
+      solver_iterations: MuJoCo's `opt.iterations` (`None`: 4 for `"gymnasium-v5"` on
+        MJX, otherwise the model's own: 4 for `"brax"`, 100 for `"gymnasium-v5"`).
+      ls_iterations: MuJoCo's `opt.ls_iterations` (`None`: 4 for `"gymnasium-v5"` on
+        MJX, otherwise the model's own).
     """
 
     num_objectives = 2
@@ -99,12 +113,15 @@ class Walker2d(PipelineEnv):
         self,
         physics: str = "brax",
         episode_length: int = 500,
+        engine: str = "mjx",
         reset_noise_scale: float = 5e-3,
         solver_iterations: int | None = None,
         ls_iterations: int | None = None,
     ):
         if physics not in PHYSICS:
             raise ValueError(f"unknown physics {physics!r}; valid: {', '.join(PHYSICS)}")
+        if engine not in ENGINES:
+            raise ValueError(f"unknown engine {engine!r}; valid: {', '.join(ENGINES)}")
         if isinstance(episode_length, bool) or not isinstance(episode_length, int):
             raise ValueError(f"episode_length must be a positive integer, got {episode_length!r}")
         if episode_length < 1:
@@ -117,7 +134,7 @@ class Walker2d(PipelineEnv):
                 raise ValueError(f"{name} must be a positive integer or None, got {value!r}")
         if not reset_noise_scale >= 0:
             raise ValueError(f"reset_noise_scale must be >= 0, got {reset_noise_scale!r}")
-        if physics == "gymnasium-v5":
+        if physics == "gymnasium-v5" and engine == "mjx":
             solver_iterations = 4 if solver_iterations is None else solver_iterations
             ls_iterations = 4 if ls_iterations is None else ls_iterations
         self.physics = physics
@@ -134,37 +151,41 @@ class Walker2d(PipelineEnv):
         torso = mujoco.mj_name2id(mj_model, mujoco.mjtObj.mjOBJ_BODY, "torso")
         # world torso height minus the rootz coordinate: 1.25 for Brax's model, 0 for v5
         self._z_offset = float(data.xpos[torso, 2] - data.qpos[1])
-        super().__init__(sys=mjcf.load_model(mj_model), backend="mjx", n_frames=4)
+        self.engine = engines.make(engine, mj_model, n_frames=4)
+        self.dt = self.engine.dt
 
     def reset(self, rng: jax.Array) -> State:
         key_q, key_qd = jax.random.split(rng)
         lo, hi = -self._noise, self._noise
-        qpos = self.sys.init_q + jax.random.uniform(
-            key_q, (self.sys.q_size(),), minval=lo, maxval=hi
+        nq, nv = self.engine.nq, self.engine.nv
+        qpos = jnp.asarray(self.engine.init_qpos) + jax.random.uniform(
+            key_q, (nq,), minval=lo, maxval=hi
         )
-        qvel = jax.random.uniform(key_qd, (self.sys.qd_size(),), minval=lo, maxval=hi)
-        pipeline_state = self.pipeline_init(qpos, qvel)
+        qvel = jax.random.uniform(key_qd, (nv,), minval=lo, maxval=hi)
+        data = self.engine.init(qpos, qvel)
         zero = jnp.zeros((), jnp.float32)
-        metrics = self._metrics(zero, zero, zero, pipeline_state.q[0])
-        return State(
-            pipeline_state, self._obs(pipeline_state), jnp.zeros(2, jnp.float32), zero, metrics
-        )
+        metrics = self._metrics(zero, zero, zero, data.qpos[0])
+        return State(data, self._obs(data), jnp.zeros(2, jnp.float32), zero, metrics)
 
     def step(self, state: State, action: jax.Array) -> State:
-        ps0 = state.pipeline_state
-        ps = self.pipeline_step(ps0, action)
-        x_velocity = (ps.q[0] - ps0.q[0]) / self.dt
-        healthy = self.is_healthy(self._qpos(ps)).astype(jnp.float32)
+        data, dqpos = self.engine.step(state.pipeline_state, action)
+        x_velocity = dqpos[0] / self.dt
+        healthy = self.is_healthy(self._qpos(data)).astype(jnp.float32)
         ctrl = -jnp.sum(jnp.square(action))
         reward = jnp.stack([x_velocity, ctrl]) + healthy
-        metrics = self._metrics(x_velocity, ctrl, healthy, ps.q[0])
+        metrics = self._metrics(x_velocity, ctrl, healthy, data.qpos[0])
         return state.replace(
-            pipeline_state=ps,
-            obs=self._obs(ps),
+            pipeline_state=data,
+            obs=self._obs(data),
             reward=reward,
             done=1.0 - healthy,
             metrics=metrics,
         )
+
+    def pipeline_init(self, qpos: jax.Array, qvel: jax.Array):
+        """The engine's physics state at `qpos [9]`, `qvel [9]` (in the model's own
+        `rootz` convention), e.g. to step from a given state."""
+        return self.engine.init(qpos, qvel)
 
     @staticmethod
     def _metrics(x_velocity, ctrl, healthy, x_position) -> dict:
@@ -186,13 +207,13 @@ class Walker2d(PipelineEnv):
         z, angle = qpos[1], qpos[2]
         return (z > 0.8) & (z < 2.0) & (angle > -1.0) & (angle < 1.0)
 
-    def _qpos(self, pipeline_state) -> jax.Array:
+    def _qpos(self, data) -> jax.Array:
         """`qpos` in v5's convention: `rootz` as the torso's world height."""
-        return pipeline_state.q.at[1].add(self._z_offset)
+        return data.qpos.at[1].add(self._z_offset)
 
-    def _obs(self, pipeline_state) -> jax.Array:
-        qvel = jnp.clip(pipeline_state.qd, -10.0, 10.0)
-        return jnp.concatenate([self._qpos(pipeline_state)[1:], qvel])
+    def _obs(self, data) -> jax.Array:
+        qvel = jnp.clip(data.qvel, -10.0, 10.0)
+        return jnp.concatenate([self._qpos(data)[1:], qvel])
 
     @property
     def observation_size(self) -> int:
@@ -201,3 +222,7 @@ class Walker2d(PipelineEnv):
     @property
     def action_size(self) -> int:
         return 6
+
+    @property
+    def backend(self) -> str:
+        return self.engine.name
