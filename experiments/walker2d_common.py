@@ -16,6 +16,7 @@ import sys
 import jax
 import numpy as np
 
+from wcac_jax import presets
 from wcac_jax.config import TrainConfig
 from wcac_jax.sweep import (
     SweepConfig,
@@ -37,6 +38,11 @@ CONFIGS = {
     # small so initial actions are not saturated) for actor and critics, and Adam on
     # the direction d_t instead of the normalised step. Everything else as the paper.
     "mlp-adam": TrainConfig(network="mlp", actor_optimizer="adam"),
+    # The practical preset (wcac_jax.presets): the same smoothed weighted-Chebyshev
+    # direction, optimised as PPO (GAE, clipped ratio, 10 epochs x 8 minibatches, Adam,
+    # observation and return normalisation, 64x64 tanh networks, a utopia point the sweep
+    # estimates from all preferences). A different update, not a paper setting.
+    "practical": presets.preset("practical"),
 }
 
 
