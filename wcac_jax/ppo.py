@@ -29,6 +29,7 @@ environment steps. Iteration `t` draws its randomness from `fold_in(state.key, t
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from dataclasses import dataclass
 
@@ -493,7 +494,7 @@ def make_trainer(config: PPOConfig, env) -> Trainer:
             jax.random.fold_in(jax.random.wrap_key_data(state.key), state.iteration)
         )
         obs_stats = state.obs_stats
-        prep = lambda x: preprocess(obs_stats, x)  # noqa: E731
+        prep = functools.partial(preprocess, obs_stats)
         finished_before = jnp.sum(state.episodes.finished)
 
         def rollout_step(carry, key):
