@@ -102,6 +102,7 @@ def test_tiny_practical_sweep_end_to_end(ppo_run, tmp_path):
         z, j_hat = curves["train/utopia"], curves["train/j_hat"]
     np.testing.assert_array_equal(z, np.broadcast_to(z[:1], z.shape))
     assert np.all(z > j_hat)
+    np.testing.assert_allclose(front["j_ub"], z[0, -1])  # front.json names the point used
     # chunking does not change the numbers
     config = sweep.SweepConfig.from_dict(front["config"])
     assert trainers.kind(config.train) == "ppo"

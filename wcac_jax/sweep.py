@@ -521,7 +521,10 @@ def _front(config, env, prefs, j_ub, hv_ref, metrics, evaluation, timing) -> dic
     return {
         "env": config.env,
         "objective_names": list(env.objective_names),
-        "j_ub": list(j_ub),
+        # the utopia point in use at the end (the sweep's own estimate, if it made one)
+        "j_ub": (
+            metrics["train/utopia"][0, -1].tolist() if "train/utopia" in metrics else list(j_ub)
+        ),
         "prefs": rows,
         "hypervolume": pareto.hypervolume(returns, hv_ref),
         "hypervolume_discounted": pareto.hypervolume(disc, hv_ref),
