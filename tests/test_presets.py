@@ -27,7 +27,7 @@ def test_every_environment_has_a_default_and_help_shows_it(capsys):
         assert name in presets.ENV_DEFAULTS
     with pytest.raises(SystemExit):
         sweep.main(["--help"])
-    out = capsys.readouterr().out
+    out = " ".join(capsys.readouterr().out.split())
     for name in envs.names():
         d = presets.ENV_DEFAULTS[name]
         assert f"{name}: {d.preset}" in out and f"{d.steps_per_pref:,}" in out

@@ -61,7 +61,8 @@ class Defaults:
     """An environment's default training run.
 
     Attributes:
-      preset: where `config` comes from: a name of `PRESETS`, or the environment's own.
+      preset: where `config` comes from: a name of `PRESETS`, or the environment's own
+        tuned configuration in this module (e.g. `presets.BANDIT`).
       config: the training configuration (its `num_iterations` is set by the sweep).
       steps_per_pref: environment steps per preference.
       note: one line for `--help` and the README: what the default gives.
@@ -138,19 +139,20 @@ ENV_DEFAULTS: dict[str, Defaults] = {
         "the practical preset at 1M env steps per preference: a walking front",
     ),
     "concave_bandit": Defaults(
-        "concave_bandit",
+        "presets.BANDIT",
         BANDIT,
         600 * BANDIT.env_steps_per_iteration,
-        "the paper's method, tuned: every interior preference on its weighted-Chebyshev optimum",
+        "the paper's method, tuned: 11 preferences reach 9 distinct points on the exact "
+        "(non-convex) front",
     ),
     "deep_sea_treasure": Defaults(
-        "deep_sea_treasure",
+        "presets.DEEP_SEA_TREASURE",
         DEEP_SEA_TREASURE,
         1500 * DEEP_SEA_TREASURE.env_steps_per_iteration,
         "the paper's method with Adam on the direction: points along the convex front",
     ),
     "tabular_momdp": Defaults(
-        "tabular_momdp",
+        "presets.TABULAR",
         TABULAR,
         1000 * TABULAR.env_steps_per_iteration,
         "the paper's method with the harmonic step: within 0.2% of the smoothed-WC optimum",

@@ -30,6 +30,7 @@ import math
 import os
 import sys
 import tempfile
+import textwrap
 import time
 from dataclasses import dataclass, field
 from typing import NamedTuple
@@ -643,17 +644,18 @@ def _defaults_table() -> str:
     lines = ["each environment's default run (flags override it):"]
     for name in envs.names():
         d = presets.env_defaults(name)
-        lines.append(
-            f"  {name}: {d.preset} ({trainers.kind(d.config)} update), "
+        text = (
+            f"{name}: {d.preset} ({trainers.kind(d.config)} update), "
             f"{d.steps_per_pref:,} env steps per preference; {d.note}"
         )
+        lines.append(textwrap.fill(text, 79, initial_indent="  ", subsequent_indent="    "))
     return "\n".join(lines)
 
 
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="python -m wcac_jax.sweep",
-        description=(
+        description=textwrap.fill(
             "Train a whole Pareto front (one policy per preference) in one compiled "
             "program and write front.json, front.csv, front.png, curves.npz, config.json "
             "and a checkpoint to --out. With no flag but --env (and --n-prefs), each "
@@ -661,7 +663,8 @@ def build_parser() -> argparse.ArgumentParser:
             "spaced preferences. --preset paper applies the paper's recipe (and its nine "
             "preferences [1,0] [0.9,0.1] [0.8,0.2] [0.7,0.3] [0.5,0.5] [0.3,0.7] [0.2,0.8] "
             "[0.1,0.9] [0,1]) to any environment; --preset practical the practical update. "
-            "Explicit flags override the preset's values."
+            "Explicit flags override the preset's values.",
+            79,
         ),
         epilog=_defaults_table(),
         formatter_class=argparse.RawDescriptionHelpFormatter,
