@@ -102,12 +102,14 @@ def test_config_validates_and_round_trips():
 def test_small_policy_head_and_zero_initial_advantage_weights():
     env = envs.make("walker2d")
     trainer = ppo.make_trainer(ppo.PPOConfig(num_envs=2, rollout_steps=4, num_minibatches=2), env)
-    state = jax.jit(trainer.init)(jax.random.key(0), jnp.array([1.0, 0.0]))
-    obs = jax.random.normal(jax.random.key(1), (64, env.observation_size))
-    mean, log_std = trainer.policy.apply(state.actor, trainer.preprocess(state.obs_stats, obs))
+    actor = trainer.policy.init(jax.random.key(0))
+    obs = 3.0 * jax.random.normal(jax.random.key(1), (64, env.observation_size))
+    stats = running_statistics.init_state(specs.Array((env.observation_size,), jnp.float32))
+    mean, log_std = trainer.policy.apply(actor, trainer.preprocess(stats, obs))
     assert float(jnp.max(jnp.abs(mean))) < 0.1  # no torque saturated at initialisation
     np.testing.assert_allclose(log_std, 0.0)
-    assert trainer.value_network.apply(state.critic, obs).shape == (64, 2)
+    critic = trainer.value_network.init(jax.random.key(2))
+    assert trainer.value_network.apply(critic, obs).shape == (64, 2)  # one value per objective
 
 
 # -- learning: the concave bandit, 3 preferences x 2 traced directions, one program
