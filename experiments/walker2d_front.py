@@ -13,6 +13,7 @@ order?); wall and compile seconds; the machine.
     python experiments/walker2d_front.py                       # paper scale: 1M steps/pref
     python experiments/walker2d_front.py --scale 0.2 --out experiments/results/walker2d_front
     python experiments/walker2d_front.py --config mlp-adam     # a named departure
+    python experiments/walker2d_front.py --config practical --out runs/walker2d_practical
 
 `--scale` multiplies the paper's 1,000,000 env steps per preference. See
 `walker2d_common.py` for the named configurations.

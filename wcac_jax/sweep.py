@@ -23,12 +23,14 @@ from __future__ import annotations
 
 import argparse
 import csv
+import dataclasses
 import io
 import json
 import math
 import os
 import sys
 import tempfile
+import textwrap
 import time
 from dataclasses import dataclass, field, replace
 from typing import NamedTuple
@@ -37,31 +39,13 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from wcac_jax import envs, pareto
+from wcac_jax import envs, pareto, presets, trainers
 from wcac_jax.config import TrainConfig
-from wcac_jax.scalarize import SCALARIZATIONS
-from wcac_jax.train import (
-    Trainer,
-    TrainState,
-    make_evaluate,
-    make_trainer,
-    resolve_j_ub,
-    with_env_steps,
-)
+from wcac_jax.presets import PAPER_PREFS
+from wcac_jax.train import Trainer, TrainState, resolve_j_ub, with_env_steps
+from wcac_jax.trainers import make_evaluate, make_trainer
+from wcac_jax.utopia import PREF_AXIS
 
-PAPER_PREFS = (
-    (1.0, 0.0),
-    (0.9, 0.1),
-    (0.8, 0.2),
-    (0.7, 0.3),
-    (0.5, 0.5),
-    (0.3, 0.7),
-    (0.2, 0.8),
-    (0.1, 0.9),
-    (0.0, 1.0),
-)
-# The newcomer's default: about 8 minutes on a 2-core CPU for 9 preferences (measured).
-DEFAULT_STEPS_PER_PREF = 100_000
 PAPER_STEPS_PER_PREF = 1_000_000
 MAX_ITERATIONS = 2**31 - 1  # `TrainState.iteration` is int32
 
@@ -82,8 +66,9 @@ class SweepConfig:
       prefs: `P` preference vectors, each on the simplex.
       env: registered environment name.
       env_options: keyword options of the environment (e.g. `physics`).
-      train: the per-preference training configuration (its `num_iterations` is
-        derived from `steps_per_pref`).
+      train: the per-preference training configuration, the paper's (`TrainConfig`)
+        or the practical one (`ppo.PPOConfig`); its `num_iterations` is derived from
+        `steps_per_pref`.
       steps_per_pref: environment steps per preference (rounded up to whole iterations).
       seed: base seed; preference `i` uses `fold_in(key(seed), i)`.
       eval_episodes: episodes of the mean policy evaluated per preference at the end.
@@ -97,8 +82,8 @@ class SweepConfig:
     prefs: tuple[tuple[float, ...], ...]
     env: str = "walker2d"
     env_options: dict = field(default_factory=dict)
-    train: TrainConfig = field(default_factory=TrainConfig)
-    steps_per_pref: int = DEFAULT_STEPS_PER_PREF
+    train: trainers.AnyConfig = field(default_factory=TrainConfig)
+    steps_per_pref: int = 100_000
     seed: int = 0
     eval_episodes: int = 8
     hv_ref: tuple[float, ...] | None = None
@@ -131,7 +116,7 @@ class SweepConfig:
         """Outer iterations `T` per preference."""
         return max(1, math.ceil(self.steps_per_pref / self.train.env_steps_per_iteration))
 
-    def train_config(self) -> TrainConfig:
+    def train_config(self) -> trainers.AnyConfig:
         return self.train.replace(num_iterations=self.num_iterations)
 
     def to_dict(self) -> dict:
@@ -139,7 +124,7 @@ class SweepConfig:
             "prefs": [list(p) for p in self.prefs],
             "env": self.env,
             "env_options": dict(self.env_options),
-            "train": self.train_config().to_dict(),
+            "train": trainers.to_dict(self.train_config()),
             "steps_per_pref": self.steps_per_pref,
             "seed": self.seed,
             "eval_episodes": self.eval_episodes,
@@ -150,16 +135,11 @@ class SweepConfig:
     @classmethod
     def from_dict(cls, d: dict) -> SweepConfig:
         """The inverse of `to_dict` (e.g. a run's `config.json`)."""
-        train = dict(d["train"])
-        if train.get("projection_radius") is None:
-            train["projection_radius"] = math.inf
-        if train.get("j_ub") is not None:
-            train["j_ub"] = tuple(train["j_ub"])
         return cls(
             prefs=tuple(tuple(float(x) for x in p) for p in d["prefs"]),
             env=d["env"],
             env_options=dict(d["env_options"]),
-            train=TrainConfig(**train),
+            train=trainers.from_dict(d["train"]),
             steps_per_pref=int(d["steps_per_pref"]),
             seed=int(d["seed"]),
             eval_episodes=int(d["eval_episodes"]),
@@ -388,7 +368,7 @@ def load_sweep(out: str) -> LoadedSweep:
     )
     # shapes only: nothing is initialised or traced through the environment twice
     state = jax.eval_shape(jax.vmap(trainer.init), keys, prefs)
-    shapes = jax.eval_shape(jax.vmap(trainer.step), state, prefs)[1]
+    shapes = jax.eval_shape(jax.vmap(trainer.step, axis_name=PREF_AXIS), state, prefs)[1]
     template = {
         "state": jax.tree.map(lambda s: np.zeros(s.shape, s.dtype), state),
         "metrics": {
@@ -479,10 +459,14 @@ def run_sweep(
 
     # every leaf of the state and metrics carries the preference axis first: shard it
     init_fn = jax.jit(jax.vmap(trainer.init), out_shardings=sharded)
-    chunk_fn = jax.jit(jax.vmap(chunk), donate_argnums=0, out_shardings=(sharded, sharded))
+    # the preference axis is named so that a trainer may share values across it (the
+    # practical update's estimated utopia point, `wcac_jax.utopia`)
+    chunk_fn = jax.jit(
+        jax.vmap(chunk, axis_name=PREF_AXIS), donate_argnums=0, out_shardings=(sharded, sharded)
+    )
     state = init_fn(keys_dev, prefs_dev)
     abstract = jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape, x.dtype), (state, prefs_dev))
-    template = jax.eval_shape(jax.vmap(trainer.step), *abstract)[1]
+    template = jax.eval_shape(jax.vmap(trainer.step, axis_name=PREF_AXIS), *abstract)[1]
     metrics_bytes = sum(
         n_prefs * n_iters * math.prod(s.shape[1:]) * np.dtype(s.dtype).itemsize
         for s in template.values()
@@ -625,7 +609,10 @@ def _front(config, env, prefs, j_ub, hv_ref, metrics, evaluation, timing) -> dic
     return {
         "env": config.env,
         "objective_names": list(env.objective_names),
-        "j_ub": list(j_ub),
+        # the utopia point in use at the end (the sweep's own estimate, if it made one)
+        "j_ub": (
+            metrics["train/utopia"][0, -1].tolist() if "train/utopia" in metrics else list(j_ub)
+        ),
         "prefs": rows,
         "hypervolume": pareto.hypervolume(returns, hv_ref),
         "hypervolume_discounted": pareto.hypervolume(disc, hv_ref),
@@ -706,32 +693,87 @@ def _parse_floats(text: str, flag: str) -> tuple[float, ...]:
         raise SweepError(f"{flag} {text!r} is not a ','-separated list of numbers") from None
 
 
+# (flag dest, config field, meaning): flags that set a field of the training config; each
+# defaults to None, i.e. the preset's (or the environment's default's) value
+_CONFIG_FLAGS = (
+    ("envs_per_pref", "num_envs", "parallel environments N per preference"),
+    ("scalarization", "scalarization", "actor direction: smooth_wc, wc, linear (or mgda, paper)"),
+    ("mu", "mu", "smoothing temperature mu"),
+    ("j_ub", "j_ub", "fixed utopia point, e.g. '2000,1000' (default: the environment's)"),
+    ("gamma", "gamma", "discount"),
+    ("width", "width", "network width w"),
+    ("depth", "depth", "network depth D"),
+    ("rollout_steps", "rollout_steps", "L: rollout steps per iteration"),
+    ("critic_steps", "critic_steps", "paper: K TD steps per iteration"),
+    ("network", "network", "paper: 'paper' or 'mlp' (actor and critics)"),
+    ("actor_lr", "actor_lr", "paper: alpha"),
+    ("critic_lr", "critic_lr", "paper: beta"),
+    ("actor_optimizer", "actor_optimizer", "paper: normalized, normalized_harmonic, adam, sgd"),
+    ("utopia", "utopia", "practical: 'estimated' (by the sweep) or 'fixed' (--j-ub)"),
+    ("learning_rate", "learning_rate", "practical: Adam's step size"),
+    ("num_epochs", "num_epochs", "practical: epochs per rollout"),
+    ("num_minibatches", "num_minibatches", "practical: minibatches per epoch"),
+)
+_FLAG_TYPES = {
+    "envs_per_pref": int,
+    "mu": float,
+    "gamma": float,
+    "width": int,
+    "depth": int,
+    "rollout_steps": int,
+    "critic_steps": int,
+    "actor_lr": float,
+    "critic_lr": float,
+    "learning_rate": float,
+    "num_epochs": int,
+    "num_minibatches": int,
+}
+
+
+def _defaults_table() -> str:
+    lines = ["each environment's default run (flags override it):"]
+    for name in envs.names():
+        d = presets.env_defaults(name)
+        text = (
+            f"{name}: {d.preset} ({trainers.kind(d.config)} update), "
+            f"{d.steps_per_pref:,} env steps per preference; {d.note}"
+        )
+        lines.append(textwrap.fill(text, 79, initial_indent="  ", subsequent_indent="    "))
+    return "\n".join(lines)
+
+
 def build_parser() -> argparse.ArgumentParser:
-    d = TrainConfig()
     p = argparse.ArgumentParser(
         prog="python -m wcac_jax.sweep",
-        description=(
+        description=textwrap.fill(
             "Train a whole Pareto front (one policy per preference) in one compiled "
             "program and write front.json, front.csv, front.png, curves.npz, config.json "
-            "and a checkpoint to --out. With no flags: the paper's Walker2d setting at "
-            f"{DEFAULT_STEPS_PER_PREF:,} env steps per preference (9 preferences, about "
-            "8 minutes on a 2-core CPU); --steps-per-pref 1000000 is the paper's scale."
+            "and a checkpoint to --out. With no flag but --env (and --n-prefs), each "
+            f"environment runs its default (below) on {presets.DEFAULT_N_PREFS} evenly "
+            "spaced preferences. --preset paper applies the paper's recipe (and its nine "
+            "preferences [1,0] [0.9,0.1] [0.8,0.2] [0.7,0.3] [0.5,0.5] [0.3,0.7] [0.2,0.8] "
+            "[0.1,0.9] [0,1]) to any environment; --preset practical the practical update. "
+            "Explicit flags override the preset's values.",
+            79,
         ),
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+        epilog=_defaults_table(),
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     g = p.add_mutually_exclusive_group()
     g.add_argument(
         "--n-prefs",
         type=int,
         default=None,
-        help="N preferences evenly spread on the simplex (default: 9)",
+        help=f"N preferences evenly spread on the simplex (default: {presets.DEFAULT_N_PREFS}, "
+        "or the paper's nine with --preset paper)",
     )
     g.add_argument("--prefs", default=None, help="explicit preferences, e.g. '1,0;0.5,0.5;0,1'")
-    g.add_argument(
+    p.add_argument(
         "--preset",
-        choices=["paper"],
+        choices=presets.PRESETS,
         default=None,
-        help="the paper's nine preferences [1,0] [0.9,0.1] ... [0,1]",
+        help="training configuration: paper (the paper's recipe and preferences) or "
+        "practical (default: the environment's, see below)",
     )
     p.add_argument("--env", default="walker2d", help=f"environment: {', '.join(envs.names())}")
     p.add_argument(
@@ -750,39 +792,19 @@ def build_parser() -> argparse.ArgumentParser:
         help="walker2d time limit in steps (default 500, as the paper)",
     )
     p.add_argument(
-        "--scalarization",
-        default=d.scalarization,
-        help=f"actor direction: one of {', '.join(SCALARIZATIONS)}, mgda",
-    )
-    p.add_argument(
         "--steps-per-pref",
         type=int,
-        default=DEFAULT_STEPS_PER_PREF,
-        help="environment steps per preference",
+        default=None,
+        help="environment steps per preference (default: the environment's, see below)",
     )
-    p.add_argument(
-        "--envs-per-pref",
-        type=int,
-        default=d.num_envs,
-        help="parallel environments N per preference",
-    )
-    p.add_argument("--critic-steps", type=int, default=d.critic_steps, help="K per iteration")
-    p.add_argument("--rollout-steps", type=int, default=d.rollout_steps, help="L per iteration")
-    p.add_argument("--network", default=d.network, help="paper or mlp (actor and critics)")
-    p.add_argument("--width", type=int, default=d.width, help="network width w")
-    p.add_argument("--depth", type=int, default=d.depth, help="network depth D")
-    p.add_argument("--mu", type=float, default=d.mu, help="smoothing temperature mu")
-    p.add_argument(
-        "--j-ub", default=None, help="utopia point, e.g. '2000,1000' (default: the environment's)"
-    )
-    p.add_argument("--gamma", type=float, default=d.gamma, help="discount")
-    p.add_argument("--actor-lr", type=float, default=d.actor_lr, help="alpha")
-    p.add_argument("--critic-lr", type=float, default=d.critic_lr, help="beta")
-    p.add_argument(
-        "--actor-optimizer",
-        default=d.actor_optimizer,
-        help="normalized, normalized_harmonic, adam or sgd",
-    )
+    for dest, _, meaning in _CONFIG_FLAGS:
+        p.add_argument(
+            "--" + dest.replace("_", "-"),
+            dest=dest,
+            type=_FLAG_TYPES.get(dest, str),
+            default=None,
+            help=f"{meaning} (default: the preset's)",
+        )
     p.add_argument(
         "--hv-ref",
         default=None,
@@ -790,29 +812,56 @@ def build_parser() -> argparse.ArgumentParser:
         "default_hv_ref, per objective the least return an episode can have)",
     )
     p.add_argument(
-        "--eval-episodes", type=int, default=8, help="evaluation episodes per preference"
+        "--eval-episodes", type=int, default=8, help="evaluation episodes per preference (8)"
     )
-    p.add_argument("--seed", type=int, default=0, help="random seed")
+    p.add_argument("--seed", type=int, default=0, help="random seed (0)")
     p.add_argument("--out", default=None, help="output directory (default: a new runs/<time>)")
     p.add_argument("--resume", action="store_true", help="continue the sweep in --out")
     p.add_argument(
         "--chunks",
         type=int,
         default=10,
-        help="host round-trips (checkpoint + progress); does not change results",
+        help="host round-trips (checkpoint + progress); does not change results (10)",
     )
     p.add_argument("--quiet", action="store_true", help="no progress output")
     return p
 
 
 def config_from_args(args) -> SweepConfig:
-    """Builds (and validates) a `SweepConfig` from parsed CLI arguments."""
+    """Builds (and validates) a `SweepConfig` from parsed CLI arguments: the preset's (or
+    the environment's default) configuration, with every flag given applied over it."""
+    defaults = presets.env_defaults(args.env)
+    if args.preset is not None:
+        try:
+            train = presets.preset(args.preset)
+        except ValueError as err:
+            raise SweepError(str(err)) from None
+        name = f"the {args.preset} preset"
+    else:
+        train, name = defaults.config, f"{args.env}'s default ({defaults.preset})"
+    fields = {f.name for f in dataclasses.fields(train)}
+    changes = {}
+    for dest, field_name, _ in _CONFIG_FLAGS:
+        value = getattr(args, dest)
+        if value is None:
+            continue
+        flag = "--" + dest.replace("_", "-")
+        if field_name not in fields:
+            raise SweepError(
+                f"{flag} does not apply to {name}, a {trainers.kind(train)} configuration"
+            )
+        changes[field_name] = _parse_floats(value, flag) if dest == "j_ub" else value
+    try:
+        train = train.replace(**changes)
+    except ValueError as err:
+        raise SweepError(str(err)) from None
+
     if args.prefs is not None:
         prefs = _parse_prefs(args.prefs)
-    elif args.preset == "paper":
+    elif args.n_prefs is None and args.preset == "paper":
         prefs = PAPER_PREFS
     else:
-        n = 9 if args.n_prefs is None else args.n_prefs
+        n = presets.DEFAULT_N_PREFS if args.n_prefs is None else args.n_prefs
         if n < 1:
             raise SweepError(f"--n-prefs must be >= 1, got {n}")
         m = int(_make_env(SweepConfig(prefs=(), env=args.env)).num_objectives)
@@ -824,30 +873,13 @@ def config_from_args(args) -> SweepConfig:
         env_options["episode_length"] = args.episode_length
     if args.engine is not None:
         env_options["engine"] = args.engine
-    try:
-        train = TrainConfig(
-            num_envs=args.envs_per_pref,
-            critic_steps=args.critic_steps,
-            rollout_steps=args.rollout_steps,
-            gamma=args.gamma,
-            mu=args.mu,
-            j_ub=None if args.j_ub is None else _parse_floats(args.j_ub, "--j-ub"),
-            scalarization=args.scalarization,
-            network=args.network,
-            width=args.width,
-            depth=args.depth,
-            actor_lr=args.actor_lr,
-            critic_lr=args.critic_lr,
-            actor_optimizer=args.actor_optimizer,
-        )
-    except ValueError as err:
-        raise SweepError(str(err)) from None
+    steps = defaults.steps_per_pref if args.steps_per_pref is None else args.steps_per_pref
     return SweepConfig(
         prefs=prefs,
         env=args.env,
         env_options=env_options,
         train=train,
-        steps_per_pref=args.steps_per_pref,
+        steps_per_pref=steps,
         seed=args.seed,
         eval_episodes=args.eval_episodes,
         hv_ref=None if args.hv_ref is None else _parse_floats(args.hv_ref, "--hv-ref"),

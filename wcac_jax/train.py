@@ -392,15 +392,20 @@ def make_train(config: TrainConfig, env) -> Callable:
     return train
 
 
-def make_evaluate(config: TrainConfig, env, num_episodes: int) -> Callable:
+def make_evaluate(
+    config: TrainConfig, env, num_episodes: int, trainer: Trainer | None = None
+) -> Callable:
     """Returns `evaluate(state, key) -> metrics` for the deterministic (mean) policy.
+
+    `trainer` is the training setup whose `mean_action` is evaluated (default:
+    `make_trainer(config, env)`; pass another update's, e.g. `ppo.make_trainer`'s).
 
     Runs `num_episodes` fresh episodes in parallel for up to `env.episode_length` steps
     and returns, for each objective, the mean undiscounted return
     (`eval/return`, `[m]`) and the mean discounted return from the start state
     (`eval/discounted_return`, `[m]`), plus `eval/length` (mean episode length).
     """
-    trainer = make_trainer(config, env)
+    trainer = trainer or make_trainer(config, env)
     wrapped = EpisodeWrapper(env, env.episode_length)
     m = int(env.num_objectives)
 

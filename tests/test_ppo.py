@@ -1,0 +1,162 @@
+"""The practical update (`wcac_jax.ppo`): its formulas against hand-computed values, its
+config, and learning on the concave bandit (known answer) with the traced directions."""
+
+import math
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from brax.training.acme import running_statistics, specs
+
+from wcac_jax import envs, ppo, trainers, utopia
+from wcac_jax.envs import concave_bandit as cb
+from wcac_jax.train import TRACED_DIRECTIONS
+
+
+def test_gae_terminal_and_truncation_by_hand():
+    # gamma = lam = 0.5. Transition 1 falls (terminal: no bootstrap, the recursion
+    # stops); transition 2 hits the time limit (bootstraps from its true next state's
+    # value 6, not from the next transition's start value 4; the recursion stops).
+    v = jnp.array([1.0, 2.0, 3.0, 4.0])
+    v_next = jnp.array([2.0, 5.0, 6.0, 7.0])
+    r = jnp.ones(4)
+    terminal = jnp.array([0.0, 1.0, 0.0, 0.0])
+    done = jnp.array([0.0, 1.0, 1.0, 0.0])
+    # deltas: 1 + .5*2 - 1 = 1; 1 - 2 = -1; 1 + .5*6 - 3 = 1; 1 + .5*7 - 4 = .5
+    # A3 = .5; A2 = 1; A1 = -1; A0 = 1 + .25 * (-1) = .75
+    expected = np.array([0.75, -1.0, 1.0, 0.5])
+    # two objectives: the second is the first times 2 (GAE is linear in r and V)
+    adv = jax.jit(ppo.gae, static_argnums=(5, 6))(
+        jnp.stack([v, 2 * v], -1),
+        jnp.stack([v_next, 2 * v_next], -1),
+        jnp.stack([r, 2 * r], -1),
+        terminal,
+        done,
+        0.5,
+        0.5,
+    )
+    np.testing.assert_allclose(adv, np.stack([expected, 2 * expected], -1), rtol=1e-6)
+
+
+def test_clipped_surrogate_and_its_gradient_by_hand():
+    log_ratio = jnp.log(jnp.array([1.5, 0.5, 1.1, 0.7]))
+    adv = jnp.array([1.0, 1.0, -2.0, -1.0])
+    # min(rho A, clip(rho, .8, 1.2) A): 1.2 (clipped), 0.5, -2.2, -0.8 (clipped)
+    value, grad = jax.jit(jax.value_and_grad(ppo.clipped_surrogate), static_argnums=2)(
+        log_ratio, adv, 0.2
+    )
+    np.testing.assert_allclose(value, (1.2 + 0.5 - 2.2 - 0.8) / 4, rtol=1e-6)
+    # d/d log rho of rho A is rho A where the unclipped term is the minimum, else 0
+    np.testing.assert_allclose(grad, [0.0, 0.5 / 4, -2.2 / 4, 0.0], rtol=1e-6, atol=1e-7)
+
+
+def test_return_normaliser_by_hand():
+    # gamma = .5, one env starting at a discounted return of 2; the episode ends at t=1
+    acc, seen = jax.jit(ppo.accumulate_returns, static_argnums=3)(
+        jnp.array([[2.0]]), jnp.ones((3, 1, 1)), jnp.array([[0.0], [1.0], [0.0]]), 0.5
+    )
+    np.testing.assert_allclose(seen[:, 0, 0], [2.0, 2.0, 1.0])  # .5*2+1, .5*2+1, 0*.5+1
+    np.testing.assert_allclose(acc, [[1.0]])
+    stats = running_statistics.update(
+        running_statistics.init_state(specs.Array((1,), jnp.float32)), seen
+    )
+    # population std of (2, 2, 1): sqrt(2/9)
+    np.testing.assert_allclose(stats.std, [math.sqrt(2.0 / 9.0)], rtol=1e-5)
+    scaled = ppo.scale_rewards(jnp.array([[3.0, -30.0]]), jnp.array([2.0, 1.0]), 10.0)
+    np.testing.assert_allclose(scaled, [[1.5, -10.0]])
+
+
+def test_observation_normaliser_by_hand():
+    env = envs.make("concave_bandit")
+    trainer = ppo.make_trainer(ppo.PPOConfig(num_envs=2, rollout_steps=4, obs_clip=10.0), env)
+    stats = running_statistics.update(
+        running_statistics.init_state(specs.Array((1,), jnp.float32)), jnp.array([[0.0], [2.0]])
+    )  # mean 1, std 1
+    out = trainer.preprocess(stats, jnp.array([[3.0], [100.0], [-1.0]]))
+    np.testing.assert_allclose(out, [[2.0], [10.0], [-2.0]], rtol=1e-6)  # 99 clipped to 10
+
+
+def test_advantage_normalisation_by_hand():
+    out = ppo.normalize_advantages(jnp.array([1.0, 3.0]))
+    np.testing.assert_allclose(out, [-1.0, 1.0], rtol=1e-6)
+
+
+def test_config_validates_and_round_trips():
+    with pytest.raises(ValueError, match="num_minibatches 3 must divide"):
+        ppo.PPOConfig(num_envs=4, rollout_steps=4, num_minibatches=3)
+    with pytest.raises(ValueError, match="scalarization must be one of"):
+        ppo.PPOConfig(scalarization="mgda")
+    with pytest.raises(ValueError, match="utopia must be one of"):
+        ppo.PPOConfig(utopia="guess")
+    with pytest.raises(ValueError, match="clip_eps must be > 0"):
+        ppo.PPOConfig(clip_eps=0.0)
+    config = ppo.PPOConfig(j_ub=[1, 2], utopia="fixed")
+    assert config.j_ub == (1.0, 2.0)
+    assert config.env_steps_per_iteration == 16 * 128
+    d = trainers.to_dict(config)
+    assert d["kind"] == "ppo"
+    assert trainers.from_dict(d) == config
+
+
+def test_small_policy_head_and_zero_initial_advantage_weights():
+    env = envs.make("walker2d")
+    trainer = ppo.make_trainer(ppo.PPOConfig(num_envs=2, rollout_steps=4, num_minibatches=2), env)
+    actor = trainer.policy.init(jax.random.key(0))
+    obs = 3.0 * jax.random.normal(jax.random.key(1), (64, env.observation_size))
+    stats = running_statistics.init_state(specs.Array((env.observation_size,), jnp.float32))
+    mean, log_std = trainer.policy.apply(actor, trainer.preprocess(stats, obs))
+    assert float(jnp.max(jnp.abs(mean))) < 0.1  # no torque saturated at initialisation
+    np.testing.assert_allclose(log_std, 0.0)
+    critic = trainer.value_network.init(jax.random.key(2))
+    assert trainer.value_network.apply(critic, obs).shape == (64, 2)  # one value per objective
+
+
+# -- learning: the concave bandit, 3 preferences x 2 traced directions, one program
+
+
+ITERS = 60
+CONFIG = ppo.PPOConfig(
+    num_envs=16,
+    rollout_steps=8,
+    num_epochs=4,
+    num_minibatches=2,
+    learning_rate=3e-3,
+    mu=0.01,
+    utopia="fixed",
+    j_ub=cb.DEFAULT_J_UB,
+    log_std_init=math.log(0.3),
+)
+PREFS = np.array([[1.0, 0.0], [0.5, 0.5], [0.0, 1.0]], np.float32)
+DIRECTIONS = ("smooth_wc", "linear")
+
+
+@pytest.fixture(scope="module")
+def bandit_runs():
+    env = envs.make("concave_bandit")
+    trainer = ppo.make_trainer(CONFIG, env)
+    n_p, n_d = len(PREFS), len(DIRECTIONS)
+    keys = jnp.tile(jax.random.split(jax.random.key(0), n_p), n_d)
+    prefs = jnp.tile(jnp.asarray(PREFS), (n_d, 1))
+    index = jnp.repeat(jnp.asarray([TRACED_DIRECTIONS.index(d) for d in DIRECTIONS]), n_p)
+
+    def train(key, pref, direction):
+        return trainer.run(trainer.init(key, pref), pref, ITERS, direction)
+
+    states, metrics = jax.jit(jax.vmap(train, axis_name=utopia.PREF_AXIS))(keys, prefs, index)
+    action = jax.vmap(lambda s: trainer.mean_action(s, jnp.ones((1,))))(states)[:, 0]
+    theta = np.asarray(cb.action_to_theta(action)).reshape(n_d, n_p)
+    return {d: theta[k] for k, d in enumerate(DIRECTIONS)}, metrics
+
+
+def test_ppo_learns_the_bandit_ends_and_the_chebyshev_optimum(bandit_runs):
+    theta, metrics = bandit_runs
+    assert np.all(np.isfinite(np.asarray(metrics["train/j_hat"])))
+    for direction in DIRECTIONS:
+        assert theta[direction][0] < 0.1  # [1, 0]: reward (1, 0) at theta = 0
+        assert theta[direction][2] > math.pi / 2 - 0.1  # [0, 1]: theta = pi / 2
+    # [.5, .5]: smooth_wc lands on the interior weighted-Chebyshev optimum (pi / 4 by
+    # symmetry); linear, on this concave front, heads for an end
+    target = float(cb.wc_optimum(PREFS[1], cb.DEFAULT_J_UB))
+    assert abs(theta["smooth_wc"][1] - target) < 0.05
+    assert abs(theta["linear"][1] - math.pi / 4) > 0.3

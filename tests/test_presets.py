@@ -1,0 +1,133 @@
+"""Presets and per-environment defaults on the command line, a tiny end-to-end sweep with
+the practical preset, and the notebook finding that run on its own."""
+
+import json
+import os
+import shutil
+
+import jax
+import nbformat
+import numpy as np
+import pytest
+from nbclient import NotebookClient
+
+from wcac_jax import envs, presets, sweep, trainers, utopia
+from wcac_jax.config import TrainConfig
+from wcac_jax.ppo import PPOConfig
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def _config(*args):
+    return sweep.config_from_args(sweep.build_parser().parse_args(list(args)))
+
+
+def test_every_environment_has_a_default_and_help_shows_it(capsys):
+    for name in envs.names():
+        assert name in presets.ENV_DEFAULTS
+    with pytest.raises(SystemExit):
+        sweep.main(["--help"])
+    out = " ".join(capsys.readouterr().out.split())
+    for name in envs.names():
+        d = presets.ENV_DEFAULTS[name]
+        assert f"{name}: {d.preset}" in out and f"{d.steps_per_pref:,}" in out
+
+
+def test_environment_defaults_without_flags():
+    walker = _config("--env", "walker2d")
+    assert walker.train == PPOConfig().replace(num_iterations=walker.train.num_iterations)
+    assert walker.steps_per_pref == 1_000_000
+    assert len(walker.prefs) == presets.DEFAULT_N_PREFS  # evenly spaced
+    np.testing.assert_allclose(walker.prefs[1], [0.875, 0.125])
+    bandit = _config("--env", "concave_bandit", "--n-prefs", "11")
+    assert bandit.train == presets.BANDIT and len(bandit.prefs) == 11
+    assert bandit.num_iterations == 600
+
+
+def test_paper_preset_gives_the_papers_recipe_and_preferences_on_any_env():
+    for env in ("walker2d", "concave_bandit"):
+        config = _config("--env", env, "--preset", "paper")
+        assert config.train == TrainConfig() and config.prefs == presets.PAPER_PREFS
+    assert len(_config("--preset", "paper", "--n-prefs", "3").prefs) == 3
+
+
+def test_explicit_flags_override_the_preset():
+    config = _config("--env", "concave_bandit", "--mu", "0.01", "--scalarization", "linear")
+    assert config.train == presets.BANDIT.replace(mu=0.01, scalarization="linear")
+    config = _config("--preset", "practical", "--utopia", "fixed", "--j-ub", "1,2")
+    assert config.train == PPOConfig(utopia="fixed", j_ub=(1.0, 2.0))
+    assert _config("--steps-per-pref", "5").steps_per_pref == 5
+
+
+@pytest.mark.parametrize(
+    "args,message",
+    [
+        (["--critic-steps", "3"], "--critic-steps does not apply to walker2d's default"),
+        (["--preset", "paper", "--num-epochs", "3"], "--num-epochs does not apply to the paper"),
+        (["--utopia", "guess"], "utopia must be one of fixed, estimated; got 'guess'"),
+        (["--num-minibatches", "7"], "num_minibatches 7 must divide"),
+    ],
+)
+def test_flags_that_do_not_fit_exit_2(args, message, tmp_path, capsys):
+    out = tmp_path / "out"
+    assert sweep.main([*args, "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and message in err, err
+    assert not out.exists()
+
+
+TINY_PPO = [
+    *("--preset", "practical", "--env", "concave_bandit", "--n-prefs", "3"),
+    *("--envs-per-pref", "8", "--rollout-steps", "8", "--num-minibatches", "2"),
+    *("--num-epochs", "2", "--steps-per-pref", "640", "--eval-episodes", "2", "--quiet"),
+]
+
+
+@pytest.fixture(scope="module")
+def ppo_run(tmp_path_factory):
+    base = tmp_path_factory.mktemp("repo")
+    out = str(base / "runs" / "20260101-000000")
+    assert sweep.main([*TINY_PPO, "--chunks", "3", "--out", out]) == 0
+    return base, out
+
+
+def test_tiny_practical_sweep_end_to_end(ppo_run, tmp_path):
+    _, out = ppo_run
+    with open(os.path.join(out, "front.json")) as f:
+        front = json.load(f)
+    assert front["config"]["train"]["kind"] == "ppo"
+    assert len(front["prefs"]) == 3 and front["env_steps_per_pref"] == 640
+    # the shared utopia: one estimate for all preferences, above every Jhat
+    with np.load(os.path.join(out, "curves.npz")) as curves:
+        z, j_hat = curves["train/utopia"], curves["train/j_hat"]
+    np.testing.assert_array_equal(z, np.broadcast_to(z[:1], z.shape))
+    assert np.all(z > j_hat)
+    np.testing.assert_allclose(front["j_ub"], z[0, -1])  # front.json names the point used
+    # chunking does not change the numbers
+    config = sweep.SweepConfig.from_dict(front["config"])
+    assert trainers.kind(config.train) == "ppo"
+    one = sweep.run_sweep(config, str(tmp_path / "one"), chunks=1, progress=False)
+    assert [r["return"] for r in one["prefs"]] == [r["return"] for r in front["prefs"]]
+    # the checkpoint restores, and replays one iteration under the named preference axis
+    run = sweep.load_sweep(out)
+    assert run.config == config
+    state, metrics = jax.jit(jax.vmap(run.trainer.step, axis_name=utopia.PREF_AXIS))(
+        run.state, np.asarray(run.config.prefs, np.float32)
+    )
+    np.testing.assert_array_equal(state.iteration, [run.config.num_iterations + 1] * 3)
+    assert all(np.isfinite(np.asarray(v)).all() for v in metrics.values())
+
+
+def test_notebook_shows_the_newest_run_without_edits(ppo_run):
+    base, _ = ppo_run
+    notebooks = base / "notebooks"
+    notebooks.mkdir(exist_ok=True)
+    shutil.copy(os.path.join(ROOT, "notebooks", "pareto_front.ipynb"), notebooks)
+    nb = nbformat.read(str(notebooks / "pareto_front.ipynb"), as_version=4)
+    NotebookClient(
+        nb, timeout=300, kernel_name="python3", resources={"metadata": {"path": str(notebooks)}}
+    ).execute()
+    outputs = [o for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", [])]
+    assert not [o for o in outputs if o.output_type == "error"]
+    assert any("20260101-000000" in o.get("text", "") for o in outputs)
+    assert any("image/png" in o.get("data", {}) for o in outputs)

@@ -1,0 +1,58 @@
+"""The sweep's own utopia estimate (`wcac_jax.utopia`) under vmap, by hand."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from wcac_jax import utopia
+
+J_HAT = jnp.array([[1.0, 5.0], [3.0, 2.0], [2.0, 4.0]])  # three preferences, two objectives
+
+
+def _estimate(state, j_hat):
+    return jax.vmap(
+        lambda s, j: utopia.estimate(s, j, margin=0.5, min_spread=2.5),
+        axis_name=utopia.PREF_AXIS,
+    )(state, j_hat)
+
+
+def _init(p):
+    return jax.vmap(lambda _: utopia.init(2))(jnp.arange(p))
+
+
+def test_shared_estimate_by_hand():
+    state, z = jax.jit(_estimate)(_init(3), J_HAT)
+    # best = max_p = (3, 5); spread = best - min_p = (2, 3), floored at 2.5: (2.5, 3)
+    # z = best + 0.5 * spread = (4.25, 6.5), the same for every preference
+    np.testing.assert_allclose(z, [[4.25, 6.5]] * 3)
+    np.testing.assert_allclose(state.best, [[3.0, 5.0]] * 3)
+    # a worse iteration keeps the best so far and widens the spread: min_p = (0, 0)
+    state, z = jax.jit(_estimate)(state, jnp.zeros((3, 2)))
+    np.testing.assert_allclose(z, [[4.5, 7.5]] * 3)  # (3 + .5 * 3, 5 + .5 * 5)
+
+
+def test_padding_with_duplicates_changes_nothing():
+    padded = jnp.concatenate([J_HAT, J_HAT[-1:], J_HAT[-1:]])
+    _, z = jax.jit(_estimate)(_init(5), padded)
+    np.testing.assert_allclose(z, [[4.25, 6.5]] * 5)
+
+
+def test_chunk_invariant_one_scan_equals_two_calls():
+    steps = jnp.stack([J_HAT, jnp.zeros((3, 2)), J_HAT + 1.0])  # [T, P, m]
+
+    def run(state, js):
+        return jax.lax.scan(
+            lambda s, j: jax.vmap(
+                lambda si, ji: utopia.estimate(si, ji, margin=0.5, min_spread=2.5),
+                axis_name=utopia.PREF_AXIS,
+            )(s, j),
+            state,
+            js,
+        )
+
+    whole_state, whole_z = jax.jit(run)(_init(3), steps)
+    part_state, z1 = jax.jit(run)(_init(3), steps[:1])
+    part_state, z2 = jax.jit(run)(part_state, steps[1:])
+    np.testing.assert_array_equal(whole_z, jnp.concatenate([z1, z2]))
+    np.testing.assert_array_equal(whole_state.best, part_state.best)
+    np.testing.assert_allclose(whole_state.best[0], [4.0, 6.0])
