@@ -140,6 +140,7 @@ def main(argv=None) -> int:
         "scale": steps / common.PAPER_STEPS_PER_PREF,
         "steps_per_pref": steps,
         "physics": args.physics,
+        "engine": args.engine,
         "smoothing_iterations": window,
         "fixed_width": args.fixed_width,
         "fixed_depth": args.fixed_depth,
@@ -153,7 +154,7 @@ def main(argv=None) -> int:
         config = SweepConfig(
             prefs=(PREF,) * args.seeds,
             env="walker2d",
-            env_options={"physics": args.physics},
+            env_options={"physics": args.physics, "engine": args.engine},
             train=base.replace(depth=depth, width=width),
             steps_per_pref=steps,
             seed=args.seed,

@@ -71,6 +71,7 @@ def add_run_args(parser: argparse.ArgumentParser, out: str) -> None:
     parser.add_argument("--scale", type=float, default=1.0, help="fraction of 1M env steps")
     parser.add_argument("--steps-per-pref", type=int, default=None, help="overrides --scale")
     parser.add_argument("--physics", default="brax", help="brax or gymnasium-v5")
+    parser.add_argument("--engine", default="mjx", help="mjx or mujoco (MuJoCo's C engine)")
     parser.add_argument("--envs-per-pref", type=int, default=None, help="N (default: config's)")
     parser.add_argument("--eval-episodes", type=int, default=8)
     parser.add_argument("--chunks", type=int, default=10)

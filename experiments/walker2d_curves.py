@@ -77,6 +77,7 @@ def main(argv=None) -> int:
         "seeds": args.seeds,
         "steps_per_pref": steps,
         "physics": args.physics,
+        "engine": args.engine,
         "machine": common.machine(),
         "resumed": args.resume,
         "configs": {},
@@ -85,7 +86,7 @@ def main(argv=None) -> int:
         config = SweepConfig(
             prefs=(PREF,) * args.seeds,
             env="walker2d",
-            env_options={"physics": args.physics},
+            env_options={"physics": args.physics, "engine": args.engine},
             train=base,
             steps_per_pref=steps,
             seed=args.seed,

@@ -168,6 +168,7 @@ def main(argv=None) -> int:
         "scale": steps / common.PAPER_STEPS_PER_PREF,
         "steps_per_pref": steps,
         "physics": args.physics,
+        "engine": args.engine,
         "smoothing_iterations": common.smoothing_window(base.env_steps_per_iteration),
         "machine": common.machine(),
         # a resumed run's wall_s counts this process only (0 for sweeps read back)
@@ -178,7 +179,7 @@ def main(argv=None) -> int:
         config = SweepConfig(
             prefs=PAPER_PREFS,
             env="walker2d",
-            env_options={"physics": args.physics},
+            env_options={"physics": args.physics, "engine": args.engine},
             train=base.replace(scalarization=direction),
             steps_per_pref=steps,
             seed=args.seed,

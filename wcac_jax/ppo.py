@@ -206,8 +206,8 @@ class PPOState:
       env_state: the `N` environments (leaves `[N, ...]`).
       episodes: episode bookkeeping (`[N, m]`, `[N]`).
       key: raw key data of the run's base key; iteration `t` uses `fold_in(key, t)`.
-      iteration: `t`, iterations done.
-      env_steps: environment steps taken so far (this preference).
+      iteration: `t`, iterations done (environment steps are counted on the host from
+        it, as int64: `train.env_steps`).
     """
 
     actor: networks.NetParams
@@ -221,7 +221,6 @@ class PPOState:
     episodes: EpisodeStats
     key: chex.PRNGKey
     iteration: chex.Array
-    env_steps: chex.Array
 
 
 # ----------------------------------------------------------------------------- formulas
@@ -328,6 +327,36 @@ def normalize_advantages(adv: chex.Array) -> chex.Array:
 # ----------------------------------------------------------------------------- networks
 
 
+def orthogonal(scale: float = 1.0):
+    """An orthogonal initializer (as `flax.linen.initializers.orthogonal`) without LAPACK.
+
+    A Gaussian matrix's columns are orthonormalised by Gram-Schmidt, twice per column
+    (CGS2, orthogonal to float32 precision), in plain `jnp`; the result is Haar-distributed
+    like QR with positive `diag(R)`. Why not flax's: its QR is a LAPACK custom call that,
+    batched under the sweep's `vmap` (jaxlib 0.10's `ParallelBatchMap`), deadlocks
+    XLA's CPU thread pool now and then when two such calls run at once (measured: the
+    practical trainer's `init` for 9 preferences hung in about 1 of 4 runs, every
+    thread waiting in `QrFactorizationKernel`).
+    """
+
+    def init(key: chex.PRNGKey, shape, dtype=jnp.float32) -> chex.Array:
+        rows, cols = shape[0], math.prod(shape[1:])
+        n, k = max(rows, cols), min(rows, cols)
+        a = jax.random.normal(key, (n, k), jnp.float32)
+
+        def column(q, j):
+            v = jax.lax.dynamic_index_in_dim(a, j, axis=1, keepdims=False)
+            for _ in range(2):  # unfilled columns of q are 0 and project nothing
+                v = v - q @ (q.T @ v)
+            return jax.lax.dynamic_update_index_in_dim(q, v / jnp.linalg.norm(v), j, 1), None
+
+        q, _ = jax.lax.scan(column, jnp.zeros_like(a), jnp.arange(k))
+        q = q if rows >= cols else q.T
+        return (scale * q).reshape(shape).astype(dtype)
+
+    return init
+
+
 class _TanhMLP(nn.Module):
     hidden: tuple[int, ...]
     out_dim: int
@@ -336,8 +365,8 @@ class _TanhMLP(nn.Module):
     @nn.compact
     def __call__(self, x):
         for size in self.hidden:
-            x = jnp.tanh(nn.Dense(size, kernel_init=nn.initializers.orthogonal(math.sqrt(2)))(x))
-        return nn.Dense(self.out_dim, kernel_init=nn.initializers.orthogonal(self.out_scale))(x)
+            x = jnp.tanh(nn.Dense(size, kernel_init=orthogonal(math.sqrt(2)))(x))
+        return nn.Dense(self.out_dim, kernel_init=orthogonal(self.out_scale))(x)
 
 
 def tanh_mlp(in_dim: int, out_dim: int, width: int, depth: int, out_scale: float):
@@ -438,7 +467,6 @@ def make_trainer(config: PPOConfig, env) -> Trainer:
             ),
             key=jax.random.key_data(key_run),
             iteration=jnp.zeros((), jnp.int32),
-            env_steps=jnp.zeros((), jnp.int32),
         )
 
     def env_step(actor_params, obs_stats, env_state, episodes, key):
@@ -577,7 +605,6 @@ def make_trainer(config: PPOConfig, env) -> Trainer:
             new_obs_stats = running_statistics.update(
                 obs_stats, batch.obs.reshape((n_samples, obs_size))
             )
-        env_steps = state.env_steps + config.env_steps_per_iteration
         newly_finished = jnp.sum(episodes.finished) - finished_before
         has_finished = (episodes.finished > 0).astype(jnp.float32)[:, None]
         episode_return = jnp.sum(episodes.last_return * has_finished, axis=0) / jnp.maximum(
@@ -591,7 +618,7 @@ def make_trainer(config: PPOConfig, env) -> Trainer:
             "train/utopia": z,
             "train/episode_return": episode_return,
             "train/episodes": newly_finished,
-            "train/env_steps": env_steps,
+            "train/iteration": state.iteration + 1,
             "train/advantage": jnp.mean(adv, axis=(0, 1)),
             "train/return_std": sigma,
             "train/policy_entropy": jnp.mean(policy.entropy(dist)),
@@ -610,7 +637,6 @@ def make_trainer(config: PPOConfig, env) -> Trainer:
             env_state=env_state,
             episodes=episodes,
             iteration=state.iteration + 1,
-            env_steps=env_steps,
         )
         return new_state, metrics
 
