@@ -230,7 +230,7 @@ def test_mujoco_sweep_bit_identical_across_chunking_and_resume(tmp_path):
 
 
 TINY_WALKER_CLI = [
-    *("--env", "walker2d", "--physics", "gymnasium-v5", "--engine", "mujoco"),
+    *("--preset", "paper", "--env", "walker2d", "--physics", "gymnasium-v5", "--engine", "mujoco"),
     *("--episode-length", "40", "--n-prefs", "3", "--envs-per-pref", "4"),
     *("--critic-steps", "2", "--rollout-steps", "3", "--network", "mlp", "--width", "16"),
     *("--depth", "1", "--steps-per-pref", "120", "--eval-episodes", "1", "--chunks", "2"),
