@@ -243,6 +243,8 @@ def check_output_dir(out: str, config: SweepConfig, resume: bool) -> None:
         new = _flatten(json.loads(_json_bytes(config.to_dict())))
         if "device_count" not in saved:  # written before the device count was recorded
             new.pop("device_count", None)
+        elif new.get("device_count") is None:  # `None`: every device, as `run_sweep` fills in
+            new["device_count"] = jax.device_count()
         differ = sorted(k for k in set(saved) | set(new) if saved.get(k) != new.get(k))
         if differ:
             details = ", ".join(f"{k} (saved {saved.get(k)!r}, now {new.get(k)!r})" for k in differ)
