@@ -39,6 +39,11 @@ def test_environment_defaults_without_flags():
     assert walker.steps_per_pref == 1_000_000
     assert len(walker.prefs) == presets.DEFAULT_N_PREFS  # evenly spaced
     np.testing.assert_allclose(walker.prefs[1], [0.875, 0.125])
+    # the paper's own model in MuJoCo's C engine unless a flag says otherwise
+    assert walker.env_options == {"physics": "gymnasium-v5", "engine": "mujoco"}
+    mjx = _config("--env", "walker2d", "--engine", "mjx", "--physics", "brax")
+    assert mjx.env_options == {"physics": "brax", "engine": "mjx"}
+    assert _config("--env", "concave_bandit").env_options == {}
     bandit = _config("--env", "concave_bandit", "--n-prefs", "11")
     assert bandit.train == presets.BANDIT and len(bandit.prefs) == 11
     assert bandit.num_iterations == 600

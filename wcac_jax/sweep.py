@@ -868,7 +868,7 @@ def config_from_args(args) -> SweepConfig:
             raise SweepError(f"--n-prefs must be >= 1, got {n}")
         m = int(_make_env(SweepConfig(prefs=(), env=args.env)).num_objectives)
         prefs = tuple(tuple(float(x) for x in p) for p in pareto.simplex_lattice(m, n))
-    env_options = {}
+    env_options = dict(defaults.env_options)
     if args.physics is not None:
         env_options["physics"] = args.physics
     if args.episode_length is not None:
@@ -916,7 +916,8 @@ def main(argv=None, *, every_core: bool = False) -> int:
     per core unless `XLA_FLAGS` is set, said on the first line; see `use_every_core`)."""
     args = build_parser().parse_args(argv)
     if every_core:
-        note = use_every_core(args.engine)
+        engine = args.engine or dict(presets.env_defaults(args.env).env_options).get("engine")
+        note = use_every_core(engine)
         if not args.quiet:
             print(note, file=sys.stderr, flush=True)
     try:
