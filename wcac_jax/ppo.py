@@ -44,8 +44,14 @@ from flax import struct
 
 from wcac_jax import networks, scalarize, utopia
 from wcac_jax.envs.wrappers import EpisodeWrapper
-from wcac_jax.train import TRACED_DIRECTIONS, Trainer, resolve_j_ub
-from wcac_jax.types import EpisodeStats, Transition
+from wcac_jax.train import (
+    TRACED_DIRECTIONS,
+    Trainer,
+    init_episodes,
+    policy_step,
+    resolve_j_ub,
+)
+from wcac_jax.types import EpisodeStats
 
 
 @dataclass(frozen=True)
@@ -460,37 +466,12 @@ def make_trainer(config: PPOConfig, env) -> Trainer:
             discounted_return=jnp.zeros((n_envs, m), jnp.float32),
             utopia=utopia.init(m),
             env_state=v_reset(jax.random.split(key_env, n_envs)),
-            episodes=EpisodeStats(
-                running_return=jnp.zeros((n_envs, m), jnp.float32),
-                last_return=jnp.zeros((n_envs, m), jnp.float32),
-                finished=jnp.zeros((n_envs,), jnp.int32),
-            ),
+            episodes=init_episodes(n_envs, m),
             key=jax.random.key_data(key_run),
             iteration=jnp.zeros((), jnp.int32),
         )
 
-    def env_step(actor_params, obs_stats, env_state, episodes, key):
-        """All `N` envs take one policy step (as `train.make_trainer`'s)."""
-        dist = policy.apply(actor_params, preprocess(obs_stats, env_state.obs))
-        action = policy.sample(key, dist)
-        next_state = v_step(env_state, policy.to_env(action))
-        done = next_state.done
-        transition = Transition(
-            obs=env_state.obs,
-            action=action,
-            reward=next_state.reward,
-            next_obs=next_state.info["final_obs"],
-            terminal=next_state.info["terminal"],
-            done=done,
-        )
-        running = episodes.running_return + next_state.reward
-        ended = done[:, None] > 0
-        episodes = EpisodeStats(
-            running_return=jnp.where(ended, 0.0, running),
-            last_return=jnp.where(ended, running, episodes.last_return),
-            finished=episodes.finished + (done > 0).astype(jnp.int32),
-        )
-        return next_state, episodes, transition
+    env_step = functools.partial(policy_step, policy, preprocess, v_step)
 
     def scalarization(direction, j_hat, pref, z):
         """(weights [m], scalarized value) of the scalarization `direction` (an index)."""

@@ -150,6 +150,52 @@ def make_policy(config: TrainConfig, env) -> networks.Policy:
     return networks.gaussian_policy(net, out, config.log_std_init, config.learn_log_std)
 
 
+def init_episodes(n_envs: int, m: int) -> EpisodeStats:
+    """Episode bookkeeping of `N` environments before their first step (`[N, m]`, `[N]`)."""
+    return EpisodeStats(
+        running_return=jnp.zeros((n_envs, m), jnp.float32),
+        last_return=jnp.zeros((n_envs, m), jnp.float32),
+        finished=jnp.zeros((n_envs,), jnp.int32),
+    )
+
+
+def policy_step(policy, preprocess, v_step, actor_params, obs_stats, env_state, episodes, key):
+    """All `N` environments take one step of the policy; shared by the paper's update and
+    the practical one (`ppo`).
+
+    Args:
+      policy: the `networks.Policy`.
+      preprocess: `(obs_stats, obs [N, obs]) -> network input`.
+      v_step: the wrapped environment's step, vmapped over `N`.
+      actor_params, obs_stats: the policy's parameters and observation statistics.
+      env_state: the `N` environments (leaves `[N, ...]`); `episodes`: their bookkeeping.
+      key: this step's key (one sample per environment).
+
+    Returns:
+      `(env_state, episodes, transition)`, the transition's leaves `[N, ...]`.
+    """
+    dist = policy.apply(actor_params, preprocess(obs_stats, env_state.obs))
+    action = policy.sample(key, dist)
+    next_state = v_step(env_state, policy.to_env(action))
+    done = next_state.done
+    transition = Transition(
+        obs=env_state.obs,
+        action=action,
+        reward=next_state.reward,
+        next_obs=next_state.info["final_obs"],
+        terminal=next_state.info["terminal"],
+        done=done,
+    )
+    running = episodes.running_return + next_state.reward
+    ended = done[:, None] > 0
+    episodes = EpisodeStats(
+        running_return=jnp.where(ended, 0.0, running),
+        last_return=jnp.where(ended, running, episodes.last_return),
+        finished=episodes.finished + (done > 0).astype(jnp.int32),
+    )
+    return next_state, episodes, transition
+
+
 def make_trainer(config: TrainConfig, env) -> Trainer:
     """Builds the pure `init` and `run` of Algorithm 1 + 2 for `env` (see module doc).
 
@@ -199,37 +245,12 @@ def make_trainer(config: TrainConfig, env) -> Trainer:
             critic=critic.init(value_net.init, key_critic, m),
             obs_stats=running_statistics.init_state(specs.Array((obs_size,), jnp.float32)),
             env_state=env_state,
-            episodes=EpisodeStats(
-                running_return=jnp.zeros((n_envs, m), jnp.float32),
-                last_return=jnp.zeros((n_envs, m), jnp.float32),
-                finished=jnp.zeros((n_envs,), jnp.int32),
-            ),
+            episodes=init_episodes(n_envs, m),
             key=jax.random.key_data(key_run),
             iteration=jnp.zeros((), jnp.int32),
         )
 
-    def env_step(actor_params, obs_stats, env_state, episodes, key):
-        """All `N` envs take one policy step. Returns the new env state, stats, transition."""
-        dist = policy.apply(actor_params, preprocess(obs_stats, env_state.obs))
-        action = policy.sample(key, dist)
-        next_state = v_step(env_state, policy.to_env(action))
-        done = next_state.done
-        transition = Transition(
-            obs=env_state.obs,
-            action=action,
-            reward=next_state.reward,
-            next_obs=next_state.info["final_obs"],
-            terminal=next_state.info["terminal"],
-            done=done,
-        )
-        running = episodes.running_return + next_state.reward
-        ended = done[:, None] > 0
-        episodes = EpisodeStats(
-            running_return=jnp.where(ended, 0.0, running),
-            last_return=jnp.where(ended, running, episodes.last_return),
-            finished=episodes.finished + (done > 0).astype(jnp.int32),
-        )
-        return next_state, episodes, transition
+    env_step = functools.partial(policy_step, policy, preprocess, v_step)
 
     traced_scals = [scalarize.get(name) for name in TRACED_DIRECTIONS]
 
