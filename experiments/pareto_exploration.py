@@ -33,55 +33,18 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from wcac_jax import envs, pareto
-from wcac_jax.config import TrainConfig
+from wcac_jax import envs, pareto, presets
 from wcac_jax.envs import concave_bandit as cb
 from wcac_jax.envs import deep_sea_treasure as dst_env
 from wcac_jax.train import TRACED_DIRECTIONS, make_trainer
 
 DIRECTIONS = ("smooth_wc", "wc", "linear", "mgda")
-# The bandit's settings (as in the tests): a fixed small policy noise, because with a
-# learned std the expected-return front of stochastic policies is the convex hull.
-BANDIT = TrainConfig(
-    num_envs=32,
-    critic_steps=2,
-    rollout_steps=4,
-    num_iterations=600,
-    mu=0.002,
-    network="mlp",
-    width=32,
-    depth=1,
-    actor_lr=0.1,
-    critic_lr=0.1,
-    actor_optimizer="normalized_harmonic",
-    log_std_init=math.log(0.05),
-    learn_log_std=False,
-    normalize_obs=False,
-    critic_warm_start=True,  # 2 TD steps from W(0) per iteration cannot evaluate a policy
-    projection_radius=math.inf,
-)
-
-
-# Deep Sea Treasure: a softmax policy over one-hot cells; Adam on d (the normalised step
-# from a uniform start rarely finds the far treasures), a smaller critic step for values
-# of magnitude ~100 at gamma = 0.99 (0.1 diverged for one preference).
-DST = TrainConfig(
-    num_envs=16,
-    critic_steps=10,
-    rollout_steps=10,
-    num_iterations=1500,
-    gamma=0.99,
-    mu=0.05,
-    network="mlp",
-    width=64,
-    depth=1,
-    actor_lr=3e-3,
-    critic_lr=0.02,
-    actor_optimizer="adam",
-    normalize_obs=False,
-    critic_warm_start=True,
-    projection_radius=math.inf,
-)
+# The environments' own tuned settings (`wcac_jax.presets`, the CLI's defaults for them),
+# for the iterations this study runs: the bandit with a fixed small policy noise (with a
+# learned std the expected-return front of stochastic policies is the convex hull); Deep
+# Sea Treasure with Adam on d and a smaller critic step.
+BANDIT = presets.BANDIT.replace(num_iterations=600)
+DST = presets.DEEP_SEA_TREASURE.replace(num_iterations=1500)
 DST_HV_REF = (0.0, -20.0)
 NEAR_FRONT = 1.0  # Deep Sea Treasure: "on the front" means within this distance of it
 
