@@ -16,6 +16,7 @@ import jax.numpy as jnp
 import mujoco
 import numpy as np
 import pytest
+from gym_states import gymnasium_states
 
 from wcac_jax import envs, sweep
 from wcac_jax.config import TrainConfig
@@ -55,33 +56,12 @@ def test_f32_to_f64_bits_matches_numpy_on_random_bit_patterns():
 # ----------------------------------------------------------------- against MO-Gymnasium
 
 
-def _gymnasium_states(n_states, seed=0):
-    """States (float64 qpos, qvel) and float32-representable actions from random-action
-    rollouts of mo-walker2d-v5, continuing a few steps past each fall."""
-    mo_gym = pytest.importorskip("mo_gymnasium")
-    genv = mo_gym.make("mo-walker2d-v5")
-    rng = np.random.default_rng(seed)
-    genv.reset(seed=seed)
-    states, actions, past_fall = [], [], 0
-    while len(states) < n_states:
-        action = rng.uniform(-1.0, 1.0, 6).astype(np.float32).astype(np.float64)
-        data = genv.unwrapped.data
-        states.append((data.qpos.copy(), data.qvel.copy()))
-        actions.append(action)
-        _, _, terminated, _, _ = genv.step(action)
-        past_fall += bool(terminated) or past_fall > 0
-        if past_fall > 5:
-            genv.reset(seed=int(rng.integers(1 << 30)))
-            past_fall = 0
-    return genv, states, actions
-
-
 def test_mujoco_engine_matches_mo_walker2d_v5():
     """One step from the same float64 (qpos, qvel) and action matches mo-walker2d-v5 to
     1e-5: it is the same C engine with the same model and solver, so what is left is the
     float32 rounding of observations and rewards (measured max 4.6e-7 on observations,
     4.8e-7 on rewards; 68 of the 320 steps terminate)."""
-    genv, states, actions = _gymnasium_states(320)
+    genv, states, actions = gymnasium_states(320, float32_actions=True)
     reference = []
     for (qpos, qvel), action in zip(states, actions, strict=True):
         genv.unwrapped.set_state(qpos, qvel)

@@ -8,6 +8,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from gym_states import gymnasium_states
 
 from wcac_jax import envs
 from wcac_jax.envs.wrappers import EpisodeWrapper
@@ -87,27 +88,6 @@ def test_smoke_auto_resets_after_falls_and_time_limit(smoke_rollout):
     assert np.all((z <= 0.8) | (z >= 2.0) | (np.abs(angle) >= 1.0))
 
 
-def _gymnasium_states(n_states, seed=0):
-    """States (qpos, qvel) and actions from random-action rollouts of mo-walker2d-v5,
-    continuing a few steps past each fall so states beyond the healthy limits appear."""
-    mo_gym = pytest.importorskip("mo_gymnasium")
-    genv = mo_gym.make("mo-walker2d-v5")
-    rng = np.random.default_rng(seed)
-    genv.reset(seed=seed)
-    states, actions, past_fall = [], [], 0
-    while len(states) < n_states:
-        action = rng.uniform(-1.0, 1.0, 6)
-        data = genv.unwrapped.data
-        states.append((data.qpos.copy(), data.qvel.copy()))
-        actions.append(action)
-        _, _, terminated, _, _ = genv.step(action)
-        past_fall += bool(terminated) or past_fall > 0
-        if past_fall > 5:
-            genv.reset(seed=int(rng.integers(1 << 30)))
-            past_fall = 0
-    return genv, states, actions
-
-
 def test_conformance_with_mo_gymnasium_walker2d_v5():
     """One step from the same (qpos, qvel) and action matches mo-walker2d-v5.
 
@@ -116,7 +96,7 @@ def test_conformance_with_mo_gymnasium_walker2d_v5():
     1e-6..1e-4, which the tolerances below bound as measured; a modelling difference
     (friction, integrator, reward terms) differs by 1e-2 or more.
     """
-    genv, states, actions = _gymnasium_states(320)
+    genv, states, actions = gymnasium_states(320)
     reference = []
     for (qpos, qvel), action in zip(states, actions, strict=True):
         genv.unwrapped.set_state(qpos, qvel)
