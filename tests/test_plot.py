@@ -12,7 +12,7 @@ import pytest  # noqa: E402
 from nbclient import NotebookClient  # noqa: E402
 from sweep_args import TINY_BANDIT  # noqa: E402
 
-from wcac_jax import plot, sweep  # noqa: E402
+from wcac_jax import cli, plot, sweep  # noqa: E402
 
 TINY = [*TINY_BANDIT, "--n-prefs", "5"]
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -23,8 +23,8 @@ def runs(tmp_path_factory):
     base = tmp_path_factory.mktemp("plots")
     out = {}
     for scal in ("smooth_wc", "linear"):
-        config = sweep.config_from_args(
-            sweep.build_parser().parse_args([*TINY, "--scalarization", scal])
+        config = cli.config_from_args(
+            cli.build_parser().parse_args([*TINY, "--scalarization", scal])
         )
         out[scal] = str(base / scal)
         sweep.run_sweep(config, out[scal], chunks=1, progress=False)

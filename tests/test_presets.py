@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from nbclient import NotebookClient
 
-from wcac_jax import envs, presets, sweep, trainers, utopia
+from wcac_jax import cli, envs, presets, sweep, trainers, utopia
 from wcac_jax.config import TrainConfig
 from wcac_jax.ppo import PPOConfig
 
@@ -19,14 +19,14 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def _config(*args):
-    return sweep.config_from_args(sweep.build_parser().parse_args(list(args)))
+    return cli.config_from_args(cli.build_parser().parse_args(list(args)))
 
 
 def test_every_environment_has_a_default_and_help_shows_it(capsys):
     for name in envs.names():
         assert name in presets.ENV_DEFAULTS
     with pytest.raises(SystemExit):
-        sweep.main(["--help"])
+        cli.main(["--help"])
     out = " ".join(capsys.readouterr().out.split())
     for name in envs.names():
         d = presets.ENV_DEFAULTS[name]
@@ -75,7 +75,7 @@ def test_explicit_flags_override_the_preset():
 )
 def test_flags_that_do_not_fit_exit_2(args, message, tmp_path, capsys):
     out = tmp_path / "out"
-    assert sweep.main([*args, "--out", str(out)]) == 2
+    assert cli.main([*args, "--out", str(out)]) == 2
     err = capsys.readouterr().err
     assert len(err.strip().splitlines()) == 1 and message in err, err
     assert not out.exists()
@@ -92,7 +92,7 @@ TINY_PPO = [
 def ppo_run(tmp_path_factory):
     base = tmp_path_factory.mktemp("repo")
     out = str(base / "runs" / "20260101-000000")
-    assert sweep.main([*TINY_PPO, "--chunks", "3", "--out", out]) == 0
+    assert cli.main([*TINY_PPO, "--chunks", "3", "--out", out]) == 0
     return base, out
 
 

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from sweep_args import TINY_BANDIT
 
-from wcac_jax import pareto, sweep
+from wcac_jax import cli, pareto, sweep
 
 TINY = [*TINY_BANDIT, "--quiet"]
 # slow enough (about a second per chunk) that a SIGKILL lands between chunks
@@ -107,7 +107,7 @@ def test_outputs_exist_parse_and_agree(tiny_run):
 
 def test_chunking_does_not_change_results(tiny_run, tmp_path):
     front3, curves3 = _load(tiny_run)
-    config = sweep.config_from_args(sweep.build_parser().parse_args([*TINY, "--n-prefs", "4"]))
+    config = cli.config_from_args(cli.build_parser().parse_args([*TINY, "--n-prefs", "4"]))
     front1 = sweep.run_sweep(config, str(tmp_path / "one"), chunks=1, progress=False)
     _, curves1 = _load(str(tmp_path / "one"))
     for k in curves3:
@@ -255,7 +255,7 @@ BAD = [
 @pytest.mark.parametrize("args,message", BAD, ids=[" ".join(a) for a, _ in BAD])
 def test_bad_input_exits_2_and_writes_nothing(args, message, tmp_path, capsys):
     out = tmp_path / "out"
-    rc = sweep.main([*TINY, *args, "--out", str(out)])
+    rc = cli.main([*TINY, *args, "--out", str(out)])
     err = capsys.readouterr().err
     assert rc == 2
     assert len(err.strip().splitlines()) == 1 and err.startswith("error: ")
@@ -282,7 +282,7 @@ def test_resume_into_a_read_only_directory_exits_2(tiny_run, capsys, monkeypatch
         lambda path, mode: False if os.path.abspath(path) == tiny_run else real_access(path, mode),
     )
     before = _tree(tiny_run)
-    rc = sweep.main([*TINY, "--n-prefs", "4", "--chunks", "3", "--out", tiny_run, "--resume"])
+    rc = cli.main([*TINY, "--n-prefs", "4", "--chunks", "3", "--out", tiny_run, "--resume"])
     err = capsys.readouterr().err
     assert rc == 2 and len(err.strip().splitlines()) == 1, err
     assert f"{tiny_run!r} is not writable" in err
@@ -295,7 +295,7 @@ def test_resume_with_a_corrupt_config_exits_2(tmp_path, capsys, text):
     out.mkdir()
     (out / "config.json").write_text(text)
     before = _tree(out)
-    rc = sweep.main([*TINY, "--n-prefs", "2", "--out", str(out), "--resume"])
+    rc = cli.main([*TINY, "--n-prefs", "2", "--out", str(out), "--resume"])
     err = capsys.readouterr().err
     assert rc == 2 and len(err.strip().splitlines()) == 1, err
     assert "config.json" in err and ("not readable JSON" in err or "no sweep config" in err)
@@ -305,14 +305,14 @@ def test_resume_with_a_corrupt_config_exits_2(tmp_path, capsys, text):
 def test_unwritable_out_exits_2(tmp_path, capsys):
     blocker = tmp_path / "file"
     blocker.write_text("x")
-    rc = sweep.main([*TINY, "--n-prefs", "2", "--out", str(blocker / "sub")])
+    rc = cli.main([*TINY, "--n-prefs", "2", "--out", str(blocker / "sub")])
     assert rc == 2 and "can't be written" in capsys.readouterr().err
     assert not (blocker / "sub").exists()
 
 
 def test_resume_with_a_different_config_names_the_keys(tiny_run, capsys):
     before = sorted(os.listdir(tiny_run))
-    rc = sweep.main([*TINY, "--n-prefs", "4", "--mu", "0.5", "--out", tiny_run, "--resume"])
+    rc = cli.main([*TINY, "--n-prefs", "4", "--mu", "0.5", "--out", tiny_run, "--resume"])
     err = capsys.readouterr().err
     assert rc == 2 and "train.mu" in err and "0.05" in err and "0.5" in err
     assert sorted(os.listdir(tiny_run)) == before
@@ -322,7 +322,7 @@ def test_nan_stops_the_sweep_naming_preference_and_iteration(tmp_path, capsys):
     out = tmp_path / "nan"
     # a huge actor step (the default critics are projected onto B = 1.0, so a huge critic
     # step no longer diverges)
-    rc = sweep.main([*TINY, "--n-prefs", "2", "--actor-lr", "1e38", "--out", str(out)])
+    rc = cli.main([*TINY, "--n-prefs", "2", "--actor-lr", "1e38", "--out", str(out)])
     err = capsys.readouterr().err
     assert rc == 3
     assert "NaN" in err and "preference #" in err and "iteration" in err, err

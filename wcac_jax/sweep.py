@@ -1,4 +1,5 @@
-"""A whole Pareto front in one compiled program: `run_sweep` and `python -m wcac_jax.sweep`.
+"""A whole Pareto front in one compiled program: `run_sweep` (`python -m wcac_jax.sweep`
+is its command line, `wcac_jax.cli`).
 
 All preferences (and their `N` environments each) train in ONE compiled program,
 `jit(vmap(chunk))` over the preference axis, with keys and preferences as traced
@@ -13,24 +14,18 @@ state untouched. `--resume` restores the last checkpoint and continues bit for b
 
 Devices: the preference axis is sharded over all local devices (a 1-D mesh named
 `"prefs"`); a preference count that does not divide evenly is padded by repeating the
-last preference, and the padding is dropped from the results. On several hosts, call
-`jax.distributed.initialize()` first on every host (same command, same flags); the mesh
-then spans `jax.devices()` of all hosts, each host feeds its addressable shards, and only
-process 0 should write `--out` (pass a host-local `--out` elsewhere).
+last preference, and the padding is dropped from the results. Several processes
+(`wcac_jax.distributed`; `--coordinator` on the command line): the mesh spans every
+process's devices, each process runs its shards, and only process 0 reads and writes
+`out`.
 """
 
 from __future__ import annotations
 
-import argparse
-import csv
-import dataclasses
-import io
 import json
 import math
 import os
 import sys
-import tempfile
-import textwrap
 import time
 from dataclasses import dataclass, field, replace
 from typing import NamedTuple
@@ -39,8 +34,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from wcac_jax import envs, pareto, presets, trainers
+from wcac_jax import distributed, envs, trainers
 from wcac_jax.config import TrainConfig
+from wcac_jax.outputs import json_bytes, summarize, write_atomic, write_outputs
 from wcac_jax.presets import PAPER_PREFS
 from wcac_jax.train import Trainer, TrainState, resolve_j_ub, with_env_steps
 from wcac_jax.trainers import make_evaluate, make_trainer
@@ -185,34 +181,12 @@ def default_hv_ref(env) -> tuple[float, ...]:
     return tuple(float(v) for v in ref)
 
 
-def _make_env(config: SweepConfig):
+def make_env(config: SweepConfig):
+    """The environment of `config`; a bad name or option is a `SweepError`."""
     try:
         return envs.make(config.env, **config.env_options)
     except (ValueError, TypeError) as err:
         raise SweepError(str(err)) from None
-
-
-def _write_atomic(path: str, data: bytes) -> None:
-    """Writes `data` to a temporary file beside `path`, then renames it over `path`."""
-    directory = os.path.dirname(path) or "."
-    fd, tmp = tempfile.mkstemp(dir=directory, prefix=".tmp-", suffix=os.path.basename(path))
-    umask = os.umask(0)
-    os.umask(umask)
-    os.fchmod(fd, 0o666 & ~umask)
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-
-
-def _json_bytes(obj) -> bytes:
-    return (json.dumps(obj, indent=2, allow_nan=True) + "\n").encode()
 
 
 def _flatten(d: dict, prefix: str = "") -> dict:
@@ -240,7 +214,7 @@ def check_output_dir(out: str, config: SweepConfig, resume: bool) -> None:
         if not isinstance(saved, dict):
             raise SweepError(f"--resume: {path!r} holds no sweep config (a {type(saved).__name__})")
         saved = _flatten(saved)
-        new = _flatten(json.loads(_json_bytes(config.to_dict())))
+        new = _flatten(json.loads(json_bytes(config.to_dict())))
         if "device_count" not in saved:  # written before the device count was recorded
             new.pop("device_count", None)
         elif new.get("device_count") is None:  # `None`: every device, as `run_sweep` fills in
@@ -303,7 +277,10 @@ class _Progress:
 def _to_checkpoint(tree) -> dict:
     """The non-empty leaves of `tree` by position (orbax cannot save zero-size arrays,
     such as MJX's actuator activations of a model without activation dynamics)."""
-    return {str(i): x for i, x in enumerate(jax.tree.leaves(tree)) if np.size(x) > 0}
+    # numpy leaves (a pytree such as Brax's UInt64 turns numpy back into jax arrays when
+    # rebuilt, and orbax refuses a host-local jax array once several processes run)
+    leaves = jax.tree.leaves(tree)
+    return {str(i): np.asarray(x) for i, x in enumerate(leaves) if np.size(x) > 0}
 
 
 def _from_checkpoint(saved: dict, template):
@@ -361,7 +338,7 @@ def load_sweep(out: str) -> LoadedSweep:
     step = manager.latest_step()
     if step is None:
         raise SweepError(f"no checkpoint in {out!r}")
-    env = _make_env(config)
+    env = make_env(config)
     trainer = make_trainer(config.train_config(), env)
     n_prefs, n_iters = len(config.prefs), config.num_iterations
     prefs = jnp.asarray(np.asarray(config.prefs, np.float32))
@@ -418,7 +395,7 @@ def run_sweep(
             f"(on a CPU: XLA_FLAGS=--xla_force_host_platform_device_count="
             f"{config.device_count} before JAX starts)"
         )
-    env = _make_env(config)
+    env = make_env(config)
     m = int(env.num_objectives)
     prefs = validate_prefs(config.prefs, m)
     train_cfg = config.train_config()
@@ -432,7 +409,7 @@ def run_sweep(
     if not isinstance(chunks, int) or chunks < 1:
         raise SweepError(f"chunks must be a positive integer, got {chunks!r}")
     if out is not None:
-        check_output_dir(out, config, resume)
+        _on_writer(lambda: check_output_dir(out, config, resume))
 
     n_prefs, n_iters = prefs.shape[0], config.num_iterations
     n_dev = jax.device_count()
@@ -442,11 +419,17 @@ def run_sweep(
     keys = jax.vmap(lambda i: jax.random.fold_in(base, i))(
         jnp.minimum(jnp.arange(n_prefs + n_pad), n_prefs - 1)
     )
+    eval_keys = jax.vmap(lambda k: jax.random.fold_in(k, 1 << 30))(keys)
     # Auto axes (GSPMD): preferences never communicate, so XLA just splits the batch.
     mesh = jax.make_mesh((n_dev,), ("prefs",), axis_types=(jax.sharding.AxisType.Auto,))
     sharded = jax.sharding.NamedSharding(mesh, jax.sharding.PartitionSpec("prefs"))
-    prefs_dev = jax.device_put(jnp.asarray(prefs_pad), sharded)
-    keys_dev = jax.device_put(keys, sharded)
+    # host values, the same on every process, laid out over every process's devices
+    prefs_dev, keys_dev, eval_keys_dev = distributed.to_global(
+        (prefs_pad, jax.random.key_data(keys), jax.random.key_data(eval_keys)), sharded
+    )
+    writer = distributed.is_writer()
+    if jax.process_count() > 1 and progress is not False:
+        _say_part(sharded, n_prefs, n_pad)
 
     trainer = make_trainer(train_cfg, env)
     chunk_len = math.ceil(n_iters / chunks)
@@ -460,7 +443,10 @@ def run_sweep(
         return jax.lax.scan(body, state, None, length=chunk_len)
 
     # every leaf of the state and metrics carries the preference axis first: shard it
-    init_fn = jax.jit(jax.vmap(trainer.init), out_shardings=sharded)
+    init_fn = jax.jit(
+        jax.vmap(lambda k, p: trainer.init(jax.random.wrap_key_data(k), p)),
+        out_shardings=sharded,
+    )
     # the preference axis is named so that a trainer may share values across it (the
     # practical update's estimated utopia point, `wcac_jax.utopia`)
     chunk_fn = jax.jit(
@@ -482,29 +468,25 @@ def run_sweep(
     metrics = {k: np.zeros((n_prefs, n_iters, *s.shape[1:]), s.dtype) for k, s in template.items()}
 
     manager = None
-    if out is not None:
-        import orbax.checkpoint as ocp
-
+    if out is not None and writer:  # only process 0 touches `out`
         os.makedirs(out, exist_ok=True)
         if not resume:
-            _write_atomic(os.path.join(out, "config.json"), _json_bytes(config.to_dict()))
-        manager = ocp.CheckpointManager(
-            os.path.abspath(os.path.join(out, "checkpoint")),
-            options=ocp.CheckpointManagerOptions(
-                max_to_keep=1, create=True, enable_async_checkpointing=False
-            ),
-        )
-        if resume and manager.latest_step() is not None:
-            template = {"state": state, "metrics": metrics}
-            restored = manager.restore(
-                manager.latest_step(),
-                args=ocp.args.StandardRestore(_to_checkpoint(template)),
-            )
-            restored = _from_checkpoint(restored, template)
-            state, metrics = restored["state"], restored["metrics"]
+            write_atomic(os.path.join(out, "config.json"), json_bytes(config.to_dict()))
+        manager = _checkpoint_manager(out)
+    if out is not None and resume:
+        # process 0 reads the checkpoint; the others receive it (no shared file system)
+        host = {"state": jax.tree.map(lambda x: np.zeros(x.shape, x.dtype), state)}
+        host["metrics"] = metrics
+        found = manager is not None and manager.latest_step() is not None
+        if found:
+            host = _restore(manager, host)
+        if distributed.all_ok(found):
+            host = distributed.broadcast(host)
+            state = distributed.to_global(host["state"], sharded)
+            metrics = {k: np.array(v) for k, v in host["metrics"].items()}  # writable
 
-    done_iters = int(np.asarray(jax.device_get(state.iteration))[0])
-    if progress is not False:
+    done_iters = int(np.asarray(state.iteration.addressable_shards[0].data)[0])
+    if progress is not False and writer:
         print(
             f"[sweep] compiling the training program for {n_prefs} preferences "
             f"(a minute or two on a 2-core CPU)",
@@ -515,7 +497,7 @@ def run_sweep(
     chunk_exec = chunk_fn.lower(state, prefs_dev).compile()
     compile_s = time.perf_counter() - t0
     steps_per_iter = train_cfg.env_steps_per_iteration
-    bar = _Progress(n_iters * steps_per_iter * n_prefs, progress)
+    bar = _Progress(n_iters * steps_per_iter * n_prefs, progress if writer else False)
     wall_start = time.perf_counter()
     train_s, steps_this_run = 0.0, 0
     chunks_run = 0
@@ -525,7 +507,7 @@ def run_sweep(
                 return {"interrupted": True, "iterations_done": done_iters}
             t0 = time.perf_counter()
             state, chunk_metrics = chunk_exec(state, prefs_dev)
-            chunk_metrics = jax.device_get(chunk_metrics)
+            chunk_metrics = distributed.to_host(chunk_metrics)
             dt = time.perf_counter() - t0
             train_s += dt
             hi = min(done_iters + chunk_len, n_iters)
@@ -536,19 +518,21 @@ def run_sweep(
             _check_finite(metrics, done_iters, hi, prefs, manager)
             done_iters = hi
             chunks_run += 1
-            if manager is not None:
-                import orbax.checkpoint as ocp
+            if out is not None:
+                host_state = distributed.to_host(state)  # every process takes part
+                if manager is not None:
+                    import orbax.checkpoint as ocp
 
-                payload = _to_checkpoint({"state": state, "metrics": metrics})
-                manager.save(done_iters, args=ocp.args.StandardSave(payload))
-                manager.wait_until_finished()
+                    payload = _to_checkpoint({"state": host_state, "metrics": metrics})
+                    manager.save(done_iters, args=ocp.args.StandardSave(payload))
+                    manager.wait_until_finished()
             bar.update(done_iters * steps_per_iter * n_prefs, dt, chunk_steps)
     finally:
         bar.close()
 
-    evaluate = jax.jit(jax.vmap(make_evaluate(train_cfg, env, config.eval_episodes)))
-    eval_keys = jax.vmap(lambda k: jax.random.fold_in(k, 1 << 30))(keys_dev)
-    evaluation = jax.device_get(evaluate(state, eval_keys))
+    evaluate_one = make_evaluate(train_cfg, env, config.eval_episodes)
+    evaluate = jax.jit(jax.vmap(lambda s, k: evaluate_one(s, jax.random.wrap_key_data(k))))
+    evaluation = distributed.to_host(evaluate(state, eval_keys_dev))
     wall = time.perf_counter() - wall_start
 
     timing = {
@@ -558,10 +542,61 @@ def run_sweep(
         "steps_this_run": steps_this_run,
     }
     metrics = with_env_steps(train_cfg, metrics)  # int64, counted on the host
-    front = _front(config, env, prefs, j_ub, hv_ref, metrics, evaluation, timing)
-    if out is not None:
-        _write_outputs(out, front, metrics, prefs, env)
+    front = summarize(config, env, prefs, j_ub, hv_ref, metrics, evaluation, timing)
+    if out is not None and writer:
+        write_outputs(out, front, metrics, prefs)
     return front
+
+
+def _on_writer(check) -> None:
+    """Runs `check` on process 0 only; if it raises `SweepError`, every process raises."""
+    err = None
+    if distributed.is_writer():
+        try:
+            check()
+        except SweepError as e:
+            err = e
+    if jax.process_count() > 1 and not distributed.all_ok(err is None) and err is None:
+        raise SweepError("process 0 stopped the sweep (its error says why)")
+    if err is not None:
+        raise err
+
+
+def _say_part(sharding, n_prefs: int, n_pad: int) -> None:
+    rows = [i for i in distributed.local_rows(sharding, n_prefs + n_pad) if i < n_prefs]
+    part = f"preferences #{rows[0]}-#{rows[-1]}" if rows else "only padding"
+    devices = ", ".join(str(d) for d in jax.local_devices())
+    print(
+        f"[process {jax.process_index()}/{jax.process_count()}] {part} of {n_prefs} "
+        f"on {devices}" + ("; writes the outputs" if distributed.is_writer() else ""),
+        file=sys.stderr,
+        flush=True,
+    )
+
+
+def _checkpoint_manager(out: str):
+    import orbax.checkpoint as ocp
+
+    extra = {}
+    if jax.process_count() > 1:  # process 0 alone saves (host arrays, no barrier)
+        extra["multiprocessing_options"] = ocp.options.MultiprocessingOptions(
+            primary_host=0, active_processes={0}
+        )
+    path = os.path.abspath(os.path.join(out, "checkpoint"))
+    os.makedirs(path, exist_ok=True)  # orbax can't create it when only process 0 saves
+    options = ocp.CheckpointManagerOptions(
+        max_to_keep=1, create=False, enable_async_checkpointing=False, **extra
+    )
+    return ocp.CheckpointManager(path, options=options)
+
+
+def _restore(manager, template):
+    import orbax.checkpoint as ocp
+
+    restored = manager.restore(
+        manager.latest_step(), args=ocp.args.StandardRestore(_to_checkpoint(template))
+    )
+    return jax.tree.map(np.asarray, _from_checkpoint(restored, template))
 
 
 def _host_memory_bytes() -> int:
@@ -583,379 +618,9 @@ def _check_finite(metrics, lo, hi, prefs, manager):
             )
 
 
-def _front(config, env, prefs, j_ub, hv_ref, metrics, evaluation, timing) -> dict:
-    n = prefs.shape[0]
-    returns = np.asarray(evaluation["eval/return"])[:n]
-    disc = np.asarray(evaluation["eval/discounted_return"])[:n]
-    length = np.asarray(evaluation["eval/length"])[:n]
-    nd = pareto.nondominated(returns)
-    outside = pareto.outside_reference(returns, hv_ref)
-    steps = int(metrics["train/env_steps"][0, -1])
-    rows = []
-    for i in range(n):
-        rows.append(
-            {
-                "pref": prefs[i].tolist(),
-                "return": returns[i].tolist(),
-                "discounted_return": disc[i].tolist(),
-                "episode_length": float(length[i]),
-                "lambda": metrics["train/weights"][i, -1].tolist(),
-                "g_mu": float(metrics["train/g_mu"][i, -1]),
-                "scalarized": float(metrics["train/scalarized"][i, -1]),
-                "j_hat": metrics["train/j_hat"][i, -1].tolist(),
-                "train_episode_return": metrics["train/episode_return"][i, -1].tolist(),
-                "nondominated": bool(nd[i]),
-                "inside_hv_ref": not bool(outside[i]),
-            }
-        )
-    return {
-        "env": config.env,
-        "objective_names": list(env.objective_names),
-        # the utopia point in use at the end (the sweep's own estimate, if it made one)
-        "j_ub": (
-            metrics["train/utopia"][0, -1].tolist() if "train/utopia" in metrics else list(j_ub)
-        ),
-        "prefs": rows,
-        "hypervolume": pareto.hypervolume(returns, hv_ref),
-        "hypervolume_discounted": pareto.hypervolume(disc, hv_ref),
-        "hv_ref": list(hv_ref),
-        # preferences whose (undiscounted) returns do not strictly dominate hv_ref: they
-        # add nothing to the hypervolume
-        "outside_hv_ref": [i for i in range(n) if outside[i]],
-        "cardinality": pareto.cardinality(returns),
-        "sparsity": pareto.sparsity(returns),
-        "expected_utility": pareto.expected_utility(
-            returns, pareto.simplex_lattice(len(j_ub), 101)
-        ),
-        "env_steps_per_pref": steps,
-        "env_steps_total": steps * n,
-        "compile_s": timing["compile_s"],
-        "train_s": timing["train_s"],
-        "wall_s": timing["wall_s"],
-        # training throughput of this run (all preferences, compilation excluded); the
-        # steps of this process only, so a resumed run reports its own part
-        "env_steps_per_s": timing["steps_this_run"] / max(timing["train_s"], 1e-9),
-        "devices": [str(d) for d in jax.devices()],
-        "config": config.to_dict(),
-    }
+if __name__ == "__main__":  # the command line lives in `wcac_jax.cli`
+    from wcac_jax.cli import main
 
-
-def _write_outputs(out, front, metrics, prefs, env):
-    _write_atomic(os.path.join(out, "front.json"), _json_bytes(front))
-    buf = io.StringIO()
-    names = front["objective_names"]
-    writer = csv.writer(buf)
-    writer.writerow(
-        [f"pref_{n}" for n in names]
-        + [f"return_{n}" for n in names]
-        + [f"discounted_return_{n}" for n in names]
-        + [f"lambda_{n}" for n in names]
-        + ["g_mu", "nondominated"]
-    )
-    for row in front["prefs"]:
-        writer.writerow(
-            row["pref"]
-            + row["return"]
-            + row["discounted_return"]
-            + row["lambda"]
-            + [row["g_mu"], int(row["nondominated"])]
-        )
-    _write_atomic(os.path.join(out, "front.csv"), buf.getvalue().encode())
-    npz = io.BytesIO()
-    np.savez(npz, prefs=prefs, objective_names=np.array(names), **metrics)
-    _write_atomic(os.path.join(out, "curves.npz"), npz.getvalue())
-    from wcac_jax import plot
-
-    fig = plot.plot_front(front)
-    png = io.BytesIO()
-    fig.savefig(png, format="png", dpi=120)
-    plot.plt.close(fig)
-    _write_atomic(os.path.join(out, "front.png"), png.getvalue())
-
-
-# ----------------------------------------------------------------------------- CLI
-
-
-def _parse_prefs(text: str) -> tuple[tuple[float, ...], ...]:
-    try:
-        return tuple(
-            tuple(float(x) for x in part.split(",")) for part in text.split(";") if part.strip()
-        )
-    except ValueError:
-        raise SweepError(
-            f"--prefs {text!r} is not a ';'-separated list of ','-separated "
-            "numbers, e.g. '1,0;0.5,0.5;0,1'"
-        ) from None
-
-
-def _parse_floats(text: str, flag: str) -> tuple[float, ...]:
-    try:
-        return tuple(float(x) for x in text.split(","))
-    except ValueError:
-        raise SweepError(f"{flag} {text!r} is not a ','-separated list of numbers") from None
-
-
-# (flag dest, config field, meaning): flags that set a field of the training config; each
-# defaults to None, i.e. the preset's (or the environment's default's) value
-_CONFIG_FLAGS = (
-    ("envs_per_pref", "num_envs", "parallel environments N per preference"),
-    ("scalarization", "scalarization", "actor direction: smooth_wc, wc, linear (or mgda, paper)"),
-    ("mu", "mu", "smoothing temperature mu"),
-    ("j_ub", "j_ub", "fixed utopia point, e.g. '2000,1000' (default: the environment's)"),
-    ("gamma", "gamma", "discount"),
-    ("width", "width", "network width w"),
-    ("depth", "depth", "network depth D"),
-    ("rollout_steps", "rollout_steps", "L: rollout steps per iteration"),
-    ("critic_steps", "critic_steps", "paper: K TD steps per iteration"),
-    ("network", "network", "paper: 'paper' or 'mlp' (actor and critics)"),
-    ("actor_lr", "actor_lr", "paper: alpha"),
-    ("critic_lr", "critic_lr", "paper: beta"),
-    ("actor_optimizer", "actor_optimizer", "paper: normalized, normalized_harmonic, adam, sgd"),
-    ("utopia", "utopia", "practical: 'estimated' (by the sweep) or 'fixed' (--j-ub)"),
-    ("learning_rate", "learning_rate", "practical: Adam's step size"),
-    ("num_epochs", "num_epochs", "practical: epochs per rollout"),
-    ("num_minibatches", "num_minibatches", "practical: minibatches per epoch"),
-)
-_FLAG_TYPES = {
-    "envs_per_pref": int,
-    "mu": float,
-    "gamma": float,
-    "width": int,
-    "depth": int,
-    "rollout_steps": int,
-    "critic_steps": int,
-    "actor_lr": float,
-    "critic_lr": float,
-    "learning_rate": float,
-    "num_epochs": int,
-    "num_minibatches": int,
-}
-
-
-def _defaults_table() -> str:
-    lines = ["each environment's default run (flags override it):"]
-    for name in envs.names():
-        d = presets.env_defaults(name)
-        text = (
-            f"{name}: {d.preset} ({trainers.kind(d.config)} update), "
-            f"{d.steps_per_pref:,} env steps per preference; {d.note}"
-        )
-        lines.append(textwrap.fill(text, 79, initial_indent="  ", subsequent_indent="    "))
-    return "\n".join(lines)
-
-
-def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
-        prog="python -m wcac_jax.sweep",
-        description=textwrap.fill(
-            "Train a whole Pareto front (one policy per preference) in one compiled "
-            "program and write front.json, front.csv, front.png, curves.npz, config.json "
-            "and a checkpoint to --out. With no flag but --env (and --n-prefs), each "
-            f"environment runs its default (below) on {presets.DEFAULT_N_PREFS} evenly "
-            "spaced preferences. --preset paper applies the paper's recipe (and its nine "
-            "preferences [1,0] [0.9,0.1] [0.8,0.2] [0.7,0.3] [0.5,0.5] [0.3,0.7] [0.2,0.8] "
-            "[0.1,0.9] [0,1]) to any environment; --preset practical the practical update. "
-            "Explicit flags override the preset's values.",
-            79,
-        ),
-        epilog=_defaults_table(),
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
-    g = p.add_mutually_exclusive_group()
-    g.add_argument(
-        "--n-prefs",
-        type=int,
-        default=None,
-        help=f"N preferences evenly spread on the simplex (default: {presets.DEFAULT_N_PREFS}, "
-        "or the paper's nine with --preset paper)",
-    )
-    g.add_argument("--prefs", default=None, help="explicit preferences, e.g. '1,0;0.5,0.5;0,1'")
-    p.add_argument(
-        "--preset",
-        choices=presets.PRESETS,
-        default=None,
-        help="training configuration: paper (the paper's recipe and preferences) or "
-        "practical (default: the environment's, see below)",
-    )
-    p.add_argument("--env", default="walker2d", help=f"environment: {', '.join(envs.names())}")
-    p.add_argument(
-        "--physics", default=None, help="walker2d physics: brax (fast, default) or gymnasium-v5"
-    )
-    p.add_argument(
-        "--engine",
-        default=None,
-        help="walker2d physics engine: mjx (default; for accelerators) or mujoco (MuJoCo's "
-        "C engine, multi-threaded; several times faster on a CPU)",
-    )
-    p.add_argument(
-        "--episode-length",
-        type=int,
-        default=None,
-        help="walker2d time limit in steps (default 500, as the paper)",
-    )
-    p.add_argument(
-        "--steps-per-pref",
-        type=int,
-        default=None,
-        help="environment steps per preference (default: the environment's, see below)",
-    )
-    for dest, _, meaning in _CONFIG_FLAGS:
-        p.add_argument(
-            "--" + dest.replace("_", "-"),
-            dest=dest,
-            type=_FLAG_TYPES.get(dest, str),
-            default=None,
-            help=f"{meaning} (default: the preset's)",
-        )
-    p.add_argument(
-        "--hv-ref",
-        default=None,
-        help="hypervolume reference point, e.g. '-500,-3000' (default: the environment's "
-        "default_hv_ref, per objective the least return an episode can have)",
-    )
-    p.add_argument(
-        "--eval-episodes", type=int, default=8, help="evaluation episodes per preference (8)"
-    )
-    p.add_argument("--seed", type=int, default=0, help="random seed (0)")
-    p.add_argument("--out", default=None, help="output directory (default: a new runs/<time>)")
-    p.add_argument("--resume", action="store_true", help="continue the sweep in --out")
-    p.add_argument(
-        "--chunks",
-        type=int,
-        default=10,
-        help="host round-trips (checkpoint + progress); does not change results (10)",
-    )
-    p.add_argument("--quiet", action="store_true", help="no progress output")
-    return p
-
-
-def config_from_args(args) -> SweepConfig:
-    """Builds (and validates) a `SweepConfig` from parsed CLI arguments: the preset's (or
-    the environment's default) configuration, with every flag given applied over it."""
-    defaults = presets.env_defaults(args.env)
-    if args.preset is not None:
-        try:
-            train = presets.preset(args.preset)
-        except ValueError as err:
-            raise SweepError(str(err)) from None
-        name = f"the {args.preset} preset"
-    else:
-        train, name = defaults.config, f"{args.env}'s default ({defaults.preset})"
-    fields = {f.name for f in dataclasses.fields(train)}
-    changes = {}
-    for dest, field_name, _ in _CONFIG_FLAGS:
-        value = getattr(args, dest)
-        if value is None:
-            continue
-        flag = "--" + dest.replace("_", "-")
-        if field_name not in fields:
-            raise SweepError(
-                f"{flag} does not apply to {name}, a {trainers.kind(train)} configuration"
-            )
-        changes[field_name] = _parse_floats(value, flag) if dest == "j_ub" else value
-    try:
-        train = train.replace(**changes)
-    except ValueError as err:
-        raise SweepError(str(err)) from None
-
-    if args.prefs is not None:
-        prefs = _parse_prefs(args.prefs)
-    elif args.n_prefs is None and args.preset == "paper":
-        prefs = PAPER_PREFS
-    else:
-        n = presets.DEFAULT_N_PREFS if args.n_prefs is None else args.n_prefs
-        if n < 1:
-            raise SweepError(f"--n-prefs must be >= 1, got {n}")
-        m = int(_make_env(SweepConfig(prefs=(), env=args.env)).num_objectives)
-        prefs = tuple(tuple(float(x) for x in p) for p in pareto.simplex_lattice(m, n))
-    env_options = dict(defaults.env_options)
-    if args.physics is not None:
-        env_options["physics"] = args.physics
-    if args.episode_length is not None:
-        env_options["episode_length"] = args.episode_length
-    if args.engine is not None:
-        env_options["engine"] = args.engine
-    steps = defaults.steps_per_pref if args.steps_per_pref is None else args.steps_per_pref
-    return SweepConfig(
-        prefs=prefs,
-        env=args.env,
-        env_options=env_options,
-        train=train,
-        steps_per_pref=steps,
-        seed=args.seed,
-        eval_episodes=args.eval_episodes,
-        hv_ref=None if args.hv_ref is None else _parse_floats(args.hv_ref, "--hv-ref"),
-    )
-
-
-def use_every_core(engine: str | None = None) -> str:
-    """Keeps every core busy; returns a line saying how. Unless the user set `XLA_FLAGS`,
-    splits the host CPU into one XLA device per core (the preference axis is sharded over
-    devices, so every core trains) — except with `engine="mujoco"`, whose C engine
-    already steps on one thread per core: its host callback takes the whole batch on one
-    device, and XLA warns at length about gathering a sharded batch for it. Only before JAX
-    initialises its backend (the device count is fixed then)."""
-    from jax._src import xla_bridge
-
-    cores = os.cpu_count() or 1
-    if xla_bridge.backends_are_initialized():
-        return f"[devices] JAX already initialised: {jax.device_count()} device(s)"
-    if "XLA_FLAGS" in os.environ:
-        return f"[devices] XLA_FLAGS={os.environ['XLA_FLAGS']!r} (yours): devices as it says"
-    if engine == "mujoco":
-        return f"[devices] engine mujoco: MuJoCo steps on {cores} threads, one per core"
-    os.environ["XLA_FLAGS"] = f"--xla_force_host_platform_device_count={cores}"
-    return (
-        f"[devices] {cores} host devices, one per core (XLA_FLAGS={os.environ['XLA_FLAGS']}; "
-        "set XLA_FLAGS to choose otherwise)"
-    )
-
-
-def main(argv=None, *, every_core: bool = False) -> int:
-    """The command line (`every_core=True` from `python -m wcac_jax.sweep`: one host device
-    per core unless `XLA_FLAGS` is set, said on the first line; see `use_every_core`)."""
-    args = build_parser().parse_args(argv)
-    if every_core:
-        engine = args.engine or dict(presets.env_defaults(args.env).env_options).get("engine")
-        note = use_every_core(engine)
-        if not args.quiet:
-            print(note, file=sys.stderr, flush=True)
-    try:
-        config = config_from_args(args)
-        out = args.out or os.path.join("runs", time.strftime("%Y%m%d-%H%M%S"))
-        if args.resume and args.out is None:
-            raise SweepError("--resume needs --out DIR")
-        front = run_sweep(
-            config,
-            out,
-            resume=args.resume,
-            chunks=args.chunks,
-            progress=False if args.quiet else None,
-        )
-    except SweepError as err:
-        print(f"error: {err}", file=sys.stderr)
-        return 2
-    except TrainingDiverged as err:
-        print(f"error: {err}", file=sys.stderr)
-        return 3
-    if not args.quiet:
-        print(
-            f"wrote {out}: {len(front['prefs'])} preferences, hypervolume "
-            f"{front['hypervolume']:.4g}, {front['env_steps_per_s']:,.0f} env-steps/s, "
-            f"{front['wall_s']:.0f} s"
-        )
-    outside = front["outside_hv_ref"]
-    if outside:
-        print(
-            f"warning: {len(outside)} of {len(front['prefs'])} policies lie outside the "
-            f"hypervolume reference box {front['hv_ref']} and add nothing to it: "
-            + ", ".join(f"#{i} {front['prefs'][i]['pref']}" for i in outside),
-            file=sys.stderr,
-        )
-    return 0
-
-
-if __name__ == "__main__":
     sys.exit(main(every_core=True))
 
 
@@ -968,5 +633,4 @@ __all__ = [
     "load_sweep",
     "run_sweep",
     "validate_prefs",
-    "main",
 ]

@@ -1,0 +1,346 @@
+"""The command line, `python -m wcac_jax.sweep`: flags to a `SweepConfig`, then `run_sweep`.
+
+Exit status: 0 done, 2 bad input (one line naming it; nothing written), 3 training
+diverged (the last good checkpoint is kept).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import os
+import sys
+import textwrap
+import time
+
+import jax
+
+from wcac_jax import distributed, envs, pareto, presets, trainers
+from wcac_jax.presets import PAPER_PREFS
+from wcac_jax.sweep import SweepConfig, SweepError, TrainingDiverged, make_env, run_sweep
+
+
+def _parse_prefs(text: str) -> tuple[tuple[float, ...], ...]:
+    try:
+        return tuple(
+            tuple(float(x) for x in part.split(",")) for part in text.split(";") if part.strip()
+        )
+    except ValueError:
+        raise SweepError(
+            f"--prefs {text!r} is not a ';'-separated list of ','-separated "
+            "numbers, e.g. '1,0;0.5,0.5;0,1'"
+        ) from None
+
+
+def _parse_floats(text: str, flag: str) -> tuple[float, ...]:
+    try:
+        return tuple(float(x) for x in text.split(","))
+    except ValueError:
+        raise SweepError(f"{flag} {text!r} is not a ','-separated list of numbers") from None
+
+
+# (flag dest, config field, meaning): flags that set a field of the training config; each
+# defaults to None, i.e. the preset's (or the environment's default's) value
+_CONFIG_FLAGS = (
+    ("envs_per_pref", "num_envs", "parallel environments N per preference"),
+    ("scalarization", "scalarization", "actor direction: smooth_wc, wc, linear (or mgda, paper)"),
+    ("mu", "mu", "smoothing temperature mu"),
+    ("j_ub", "j_ub", "fixed utopia point, e.g. '2000,1000' (default: the environment's)"),
+    ("gamma", "gamma", "discount"),
+    ("width", "width", "network width w"),
+    ("depth", "depth", "network depth D"),
+    ("rollout_steps", "rollout_steps", "L: rollout steps per iteration"),
+    ("critic_steps", "critic_steps", "paper: K TD steps per iteration"),
+    ("network", "network", "paper: 'paper' or 'mlp' (actor and critics)"),
+    ("actor_lr", "actor_lr", "paper: alpha"),
+    ("critic_lr", "critic_lr", "paper: beta"),
+    ("actor_optimizer", "actor_optimizer", "paper: normalized, normalized_harmonic, adam, sgd"),
+    ("utopia", "utopia", "practical: 'estimated' (by the sweep) or 'fixed' (--j-ub)"),
+    ("learning_rate", "learning_rate", "practical: Adam's step size"),
+    ("num_epochs", "num_epochs", "practical: epochs per rollout"),
+    ("num_minibatches", "num_minibatches", "practical: minibatches per epoch"),
+)
+_FLAG_TYPES = {
+    "envs_per_pref": int,
+    "mu": float,
+    "gamma": float,
+    "width": int,
+    "depth": int,
+    "rollout_steps": int,
+    "critic_steps": int,
+    "actor_lr": float,
+    "critic_lr": float,
+    "learning_rate": float,
+    "num_epochs": int,
+    "num_minibatches": int,
+}
+
+
+def _defaults_table() -> str:
+    lines = ["each environment's default run (flags override it):"]
+    for name in envs.names():
+        d = presets.env_defaults(name)
+        text = (
+            f"{name}: {d.preset} ({trainers.kind(d.config)} update), "
+            f"{d.steps_per_pref:,} env steps per preference; {d.note}"
+        )
+        lines.append(textwrap.fill(text, 79, initial_indent="  ", subsequent_indent="    "))
+    return "\n".join(lines)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="python -m wcac_jax.sweep",
+        description=textwrap.fill(
+            "Train a whole Pareto front (one policy per preference) in one compiled "
+            "program and write front.json, front.csv, front.png, curves.npz, config.json "
+            "and a checkpoint to --out. With no flag but --env (and --n-prefs), each "
+            f"environment runs its default (below) on {presets.DEFAULT_N_PREFS} evenly "
+            "spaced preferences. --preset paper applies the paper's recipe (and its nine "
+            "preferences [1,0] [0.9,0.1] [0.8,0.2] [0.7,0.3] [0.5,0.5] [0.3,0.7] [0.2,0.8] "
+            "[0.1,0.9] [0,1]) to any environment; --preset practical the practical update. "
+            "Explicit flags override the preset's values.",
+            79,
+        ),
+        epilog=_defaults_table(),
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    g = p.add_mutually_exclusive_group()
+    g.add_argument(
+        "--n-prefs",
+        type=int,
+        default=None,
+        help=f"N preferences evenly spread on the simplex (default: {presets.DEFAULT_N_PREFS}, "
+        "or the paper's nine with --preset paper)",
+    )
+    g.add_argument("--prefs", default=None, help="explicit preferences, e.g. '1,0;0.5,0.5;0,1'")
+    p.add_argument(
+        "--preset",
+        choices=presets.PRESETS,
+        default=None,
+        help="training configuration: paper (the paper's recipe and preferences) or "
+        "practical (default: the environment's, see below)",
+    )
+    p.add_argument("--env", default="walker2d", help=f"environment: {', '.join(envs.names())}")
+    p.add_argument(
+        "--physics", default=None, help="walker2d physics: brax (fast, default) or gymnasium-v5"
+    )
+    p.add_argument(
+        "--engine",
+        default=None,
+        help="walker2d physics engine: mjx (default; for accelerators) or mujoco (MuJoCo's "
+        "C engine, multi-threaded; several times faster on a CPU)",
+    )
+    p.add_argument(
+        "--episode-length",
+        type=int,
+        default=None,
+        help="walker2d time limit in steps (default 500, as the paper)",
+    )
+    p.add_argument(
+        "--steps-per-pref",
+        type=int,
+        default=None,
+        help="environment steps per preference (default: the environment's, see below)",
+    )
+    for dest, _, meaning in _CONFIG_FLAGS:
+        p.add_argument(
+            "--" + dest.replace("_", "-"),
+            dest=dest,
+            type=_FLAG_TYPES.get(dest, str),
+            default=None,
+            help=f"{meaning} (default: the preset's)",
+        )
+    p.add_argument(
+        "--hv-ref",
+        default=None,
+        help="hypervolume reference point, e.g. '-500,-3000' (default: the environment's "
+        "default_hv_ref, per objective the least return an episode can have)",
+    )
+    p.add_argument(
+        "--eval-episodes", type=int, default=8, help="evaluation episodes per preference (8)"
+    )
+    p.add_argument("--seed", type=int, default=0, help="random seed (0)")
+    p.add_argument("--out", default=None, help="output directory (default: a new runs/<time>)")
+    p.add_argument("--resume", action="store_true", help="continue the sweep in --out")
+    p.add_argument(
+        "--chunks",
+        type=int,
+        default=10,
+        help="host round-trips (checkpoint + progress); does not change results (10)",
+    )
+    p.add_argument("--quiet", action="store_true", help="no progress output")
+    g = p.add_argument_group(
+        "several processes (README, 'Many machines'): run the same command in each, "
+        "with its own --process-id"
+    )
+    g.add_argument(
+        "--coordinator",
+        default=None,
+        metavar="HOST:PORT",
+        help="process 0's address; every process joins one sweep (default: "
+        "$JAX_COORDINATOR_ADDRESS; without either, one process)",
+    )
+    g.add_argument(
+        "--num-processes",
+        type=int,
+        default=None,
+        help="processes in the sweep (default: $SLURM_NTASKS or $OMPI_COMM_WORLD_SIZE)",
+    )
+    g.add_argument(
+        "--process-id",
+        type=int,
+        default=None,
+        help="this process's rank, 0..N-1 (default: $SLURM_PROCID or $OMPI_COMM_WORLD_RANK)",
+    )
+    g.add_argument(
+        "--coordinator-timeout",
+        type=float,
+        default=300.0,
+        metavar="SECONDS",
+        help="how long the processes wait for each other at the start (300)",
+    )
+    return p
+
+
+def config_from_args(args) -> SweepConfig:
+    """Builds (and validates) a `SweepConfig` from parsed CLI arguments: the preset's (or
+    the environment's default) configuration, with every flag given applied over it."""
+    defaults = presets.env_defaults(args.env)
+    if args.preset is not None:
+        try:
+            train = presets.preset(args.preset)
+        except ValueError as err:
+            raise SweepError(str(err)) from None
+        name = f"the {args.preset} preset"
+    else:
+        train, name = defaults.config, f"{args.env}'s default ({defaults.preset})"
+    fields = {f.name for f in dataclasses.fields(train)}
+    changes = {}
+    for dest, field_name, _ in _CONFIG_FLAGS:
+        value = getattr(args, dest)
+        if value is None:
+            continue
+        flag = "--" + dest.replace("_", "-")
+        if field_name not in fields:
+            raise SweepError(
+                f"{flag} does not apply to {name}, a {trainers.kind(train)} configuration"
+            )
+        changes[field_name] = _parse_floats(value, flag) if dest == "j_ub" else value
+    try:
+        train = train.replace(**changes)
+    except ValueError as err:
+        raise SweepError(str(err)) from None
+
+    if args.prefs is not None:
+        prefs = _parse_prefs(args.prefs)
+    elif args.n_prefs is None and args.preset == "paper":
+        prefs = PAPER_PREFS
+    else:
+        n = presets.DEFAULT_N_PREFS if args.n_prefs is None else args.n_prefs
+        if n < 1:
+            raise SweepError(f"--n-prefs must be >= 1, got {n}")
+        m = int(make_env(SweepConfig(prefs=(), env=args.env)).num_objectives)
+        prefs = tuple(tuple(float(x) for x in p) for p in pareto.simplex_lattice(m, n))
+    env_options = dict(defaults.env_options)
+    if args.physics is not None:
+        env_options["physics"] = args.physics
+    if args.episode_length is not None:
+        env_options["episode_length"] = args.episode_length
+    if args.engine is not None:
+        env_options["engine"] = args.engine
+    steps = defaults.steps_per_pref if args.steps_per_pref is None else args.steps_per_pref
+    return SweepConfig(
+        prefs=prefs,
+        env=args.env,
+        env_options=env_options,
+        train=train,
+        steps_per_pref=steps,
+        seed=args.seed,
+        eval_episodes=args.eval_episodes,
+        hv_ref=None if args.hv_ref is None else _parse_floats(args.hv_ref, "--hv-ref"),
+    )
+
+
+def use_every_core(engine: str | None = None) -> str:
+    """Keeps every core busy; returns a line saying how. Unless the user set `XLA_FLAGS`,
+    splits the host CPU into one XLA device per core (the preference axis is sharded over
+    devices, so every core trains) — except with `engine="mujoco"`, whose C engine
+    already steps on one thread per core: its host callback takes the whole batch on one
+    device, and XLA warns at length about gathering a sharded batch for it. Only before JAX
+    initialises its backend (the device count is fixed then)."""
+    from jax._src import xla_bridge
+
+    cores = os.cpu_count() or 1
+    if xla_bridge.backends_are_initialized():
+        return f"[devices] JAX already initialised: {jax.device_count()} device(s)"
+    if "XLA_FLAGS" in os.environ:
+        return f"[devices] XLA_FLAGS={os.environ['XLA_FLAGS']!r} (yours): devices as it says"
+    if engine == "mujoco":
+        return f"[devices] engine mujoco: MuJoCo steps on {cores} threads, one per core"
+    os.environ["XLA_FLAGS"] = f"--xla_force_host_platform_device_count={cores}"
+    return (
+        f"[devices] {cores} host devices, one per core (XLA_FLAGS={os.environ['XLA_FLAGS']}; "
+        "set XLA_FLAGS to choose otherwise)"
+    )
+
+
+def main(argv=None, *, every_core: bool = False) -> int:
+    """The command line (`every_core=True` from `python -m wcac_jax.sweep`: one host device
+    per core unless `XLA_FLAGS` is set, said on the first line; see `use_every_core`)."""
+    args = build_parser().parse_args(argv)
+    try:
+        cluster = distributed.from_environment(
+            args.coordinator, args.num_processes, args.process_id, args.coordinator_timeout
+        )
+    except distributed.DistributedError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+    if every_core:
+        engine = args.engine or dict(presets.env_defaults(args.env).env_options).get("engine")
+        note = use_every_core(engine)
+        if not args.quiet:
+            print(note, file=sys.stderr, flush=True)
+    try:
+        if cluster is not None:  # before anything touches JAX's devices
+            distributed.initialize(cluster)
+        config = config_from_args(args)
+        out = args.out or os.path.join("runs", time.strftime("%Y%m%d-%H%M%S"))
+        if args.resume and args.out is None:
+            raise SweepError("--resume needs --out DIR")
+        front = run_sweep(
+            config,
+            out,
+            resume=args.resume,
+            chunks=args.chunks,
+            progress=False if args.quiet else None,
+        )
+    except (SweepError, distributed.DistributedError) as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+    except TrainingDiverged as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 3
+    if not distributed.is_writer():
+        if not args.quiet:
+            print(f"[process {jax.process_index()}] done; process 0 wrote {out}", file=sys.stderr)
+        return 0
+    if not args.quiet:
+        print(
+            f"wrote {out}: {len(front['prefs'])} preferences, hypervolume "
+            f"{front['hypervolume']:.6g}, {front['env_steps_per_s']:,.0f} env-steps/s, "
+            f"{front['wall_s']:.0f} s"
+        )
+    outside = front["outside_hv_ref"]
+    if outside:
+        print(
+            f"warning: {len(outside)} of {len(front['prefs'])} policies lie outside the "
+            f"hypervolume reference box {front['hv_ref']} and add nothing to it: "
+            + ", ".join(f"#{i} {front['prefs'][i]['pref']}" for i in outside),
+            file=sys.stderr,
+        )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(every_core=True))
