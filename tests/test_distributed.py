@@ -116,6 +116,29 @@ def test_two_processes_resume_after_a_stop(one_process, tmp_path):
     _same_front(one_process, out)
 
 
+# every process builds MJX's Walker2d and resets it under jit: MJX's `put_model` used to
+# place each process's model on process 0's device, which process 1 cannot read
+_MJX_ENV = """
+import sys, jax
+from wcac_jax import cli, distributed, envs
+a = cli.build_parser().parse_args(sys.argv[1:])
+distributed.initialize(distributed.from_environment(
+    a.coordinator, a.num_processes, a.process_id, a.coordinator_timeout))
+env = envs.make("walker2d", physics="brax", engine="mjx")
+leaves = jax.tree.leaves(env.engine.sys)
+assert all(x.is_fully_addressable for x in leaves if isinstance(x, jax.Array))
+state = jax.jit(env.reset)(jax.random.key(0))
+print(float(state.obs.sum()))
+"""
+
+
+def test_two_processes_each_build_the_mjx_walker():
+    results = _run_processes(lambda i: [sys.executable, "-c", _MJX_ENV])
+    for rc, _, err in results:
+        assert rc == 0, err
+    assert results[0][1] == results[1][1]  # the same start from the same key
+
+
 @pytest.mark.parametrize(
     "flags, message",
     [

@@ -9,6 +9,7 @@ engine is several times faster.
 
 from __future__ import annotations
 
+import contextlib
 import warnings
 
 import jax
@@ -16,6 +17,27 @@ import mujoco
 import numpy as np
 from brax.io import mjcf
 from brax.mjx import pipeline
+
+
+@contextlib.contextmanager
+def _local_device_first():
+    """Inside, `jax.devices()` lists this process's devices only.
+
+    MJX's `put_model` (called by Brax's `mjcf.load_model`, which takes no device) places
+    the model on `jax.devices()[0]`: in a multi-process run that is process 0's first
+    device, so every other process would hold a model it cannot read ("closing over a
+    jax.Array that spans non-addressable devices" when the sweep compiles). Each process
+    builds its environment on its own first device instead; one process: no change.
+    """
+    if jax.process_count() == 1:
+        yield
+        return
+    real = jax.devices
+    jax.devices = lambda backend=None: jax.local_devices(backend=backend)
+    try:
+        yield
+    finally:
+        jax.devices = real
 
 
 class MjxEngine:
@@ -32,7 +54,8 @@ class MjxEngine:
                 message="Brax System, piplines and environments are not actively",
                 category=UserWarning,
             )
-            self.sys = mjcf.load_model(mj_model)
+            with _local_device_first():
+                self.sys = mjcf.load_model(mj_model)
         self.n_frames = int(n_frames)
         self.dt = float(mj_model.opt.timestep) * self.n_frames
         self.init_qpos = np.asarray(mj_model.qpos0, np.float32)
