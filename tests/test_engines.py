@@ -230,8 +230,9 @@ def _cli(args, env):
 
 @pytest.mark.slow
 def test_mujoco_sweep_sharded_over_two_host_devices(tmp_path):
-    """The device count is fixed when JAX starts, hence a subprocess. The host callback
-    runs once per step with the whole batch (gathered from both devices)."""
+    """The device count is fixed when JAX starts, hence a subprocess. Each device steps
+    its own preferences' environments (the sweep's `shard_map`): XLA gathers nothing for
+    the host callback (it used to, warning "Involuntary full rematerialization")."""
     out = tmp_path / "two"
     flags = "--xla_force_host_platform_device_count=2"
     run = _cli([*TINY_WALKER_CLI, "--out", str(out)], {"XLA_FLAGS": flags})
@@ -239,6 +240,7 @@ def test_mujoco_sweep_sharded_over_two_host_devices(tmp_path):
     assert (
         run.stderr.splitlines()[0] == f"[devices] XLA_FLAGS='{flags}' (yours): devices as it says"
     )
+    assert "rematerialization" not in run.stderr
     front, curves = _outputs(out)
     assert len(front["devices"]) == 2 and len(front["prefs"]) == 3
     with open(out / "config.json") as f:

@@ -1,5 +1,9 @@
 """The sweep's own utopia estimate (`wcac_jax.utopia`) under vmap, by hand."""
 
+import os
+import subprocess
+import sys
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -56,3 +60,32 @@ def test_chunk_invariant_one_scan_equals_two_calls():
     np.testing.assert_array_equal(whole_z, jnp.concatenate([z1, z2]))
     np.testing.assert_array_equal(whole_state.best, part_state.best)
     np.testing.assert_allclose(whole_state.best[0], [4.0, 6.0])
+
+
+# the sweep splits the preferences over devices (`jax.shard_map` on `DEVICE_AXIS`); the
+# estimate must still see every preference. Two host devices need a fresh JAX: a subprocess.
+_TWO_DEVICES = """
+import jax, jax.numpy as jnp
+from jax.sharding import PartitionSpec as P
+from wcac_jax import utopia
+assert jax.device_count() == 2
+mesh = jax.make_mesh((2,), (utopia.DEVICE_AXIS,), axis_types=(jax.sharding.AxisType.Auto,))
+j_hat = jnp.array([[1.0, 5.0], [3.0, 2.0], [2.0, 4.0], [2.0, 4.0]])  # 4 = 3 + 1 padding
+state = jax.vmap(lambda _: utopia.init(2))(jnp.arange(4))
+f = jax.vmap(lambda s, j: utopia.estimate(s, j, margin=0.5, min_spread=2.5),
+             axis_name=utopia.PREF_AXIS)
+spec = P(utopia.DEVICE_AXIS)
+state, z = jax.jit(jax.shard_map(f, mesh=mesh, in_specs=spec, out_specs=spec,
+                                  check_vma=False))(state, j_hat)
+print(z.tolist(), state.best.tolist())
+"""
+
+
+def test_shared_across_devices_by_hand():
+    env = dict(os.environ, XLA_FLAGS="--xla_force_host_platform_device_count=2")
+    run = subprocess.run(
+        [sys.executable, "-c", _TWO_DEVICES], env=env, capture_output=True, text=True, timeout=120
+    )
+    assert run.returncode == 0, run.stderr
+    # as test_shared_estimate_by_hand: preferences 0-1 on one device, 2-3 on the other
+    assert run.stdout.strip() == f"{[[4.25, 6.5]] * 4} {[[3.0, 5.0]] * 4}", run.stdout

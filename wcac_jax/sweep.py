@@ -33,6 +33,7 @@ from typing import NamedTuple
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jax.sharding import PartitionSpec as P
 
 from wcac_jax import distributed, envs, trainers
 from wcac_jax.config import TrainConfig
@@ -40,7 +41,7 @@ from wcac_jax.outputs import json_bytes, summarize, write_atomic, write_outputs
 from wcac_jax.presets import PAPER_PREFS
 from wcac_jax.train import Trainer, TrainState, resolve_j_ub, with_env_steps
 from wcac_jax.trainers import make_evaluate, make_trainer
-from wcac_jax.utopia import PREF_AXIS
+from wcac_jax.utopia import DEVICE_AXIS, PREF_AXIS
 
 PAPER_STEPS_PER_PREF = 1_000_000
 MAX_ITERATIONS = 2**31 - 1  # `TrainState.iteration` is int32
@@ -420,9 +421,8 @@ def run_sweep(
         jnp.minimum(jnp.arange(n_prefs + n_pad), n_prefs - 1)
     )
     eval_keys = jax.vmap(lambda k: jax.random.fold_in(k, 1 << 30))(keys)
-    # Auto axes (GSPMD): preferences never communicate, so XLA just splits the batch.
-    mesh = jax.make_mesh((n_dev,), ("prefs",), axis_types=(jax.sharding.AxisType.Auto,))
-    sharded = jax.sharding.NamedSharding(mesh, jax.sharding.PartitionSpec("prefs"))
+    mesh = jax.make_mesh((n_dev,), (DEVICE_AXIS,), axis_types=(jax.sharding.AxisType.Auto,))
+    sharded = jax.sharding.NamedSharding(mesh, P(DEVICE_AXIS))
     # host values, the same on every process, laid out over every process's devices
     prefs_dev, keys_dev, eval_keys_dev = distributed.to_global(
         (prefs_pad, jax.random.key_data(keys), jax.random.key_data(eval_keys)), sharded
@@ -442,16 +442,22 @@ def run_sweep(
 
         return jax.lax.scan(body, state, None, length=chunk_len)
 
-    # every leaf of the state and metrics carries the preference axis first: shard it
+    # Every leaf of the state and metrics carries the preference axis first; each device
+    # runs the vmapped program on its own preferences (`shard_map`), so host callbacks
+    # (MuJoCo's C engine) step each device's environments where they are, in every
+    # process. The preference axis is named so that a trainer may share values across it
+    # (the practical update's estimated utopia point, `wcac_jax.utopia`, which spans the
+    # device axis too).
+    # (`check_vma=False`: values computed from constants, e.g. an episode's first flags,
+    # are the same on every device, and the scan's carry types must not tell them apart)
+    def per_device(f):
+        spec = P(DEVICE_AXIS)
+        return jax.shard_map(f, mesh=mesh, in_specs=spec, out_specs=spec, check_vma=False)
+
     init_fn = jax.jit(
-        jax.vmap(lambda k, p: trainer.init(jax.random.wrap_key_data(k), p)),
-        out_shardings=sharded,
+        per_device(jax.vmap(lambda k, p: trainer.init(jax.random.wrap_key_data(k), p)))
     )
-    # the preference axis is named so that a trainer may share values across it (the
-    # practical update's estimated utopia point, `wcac_jax.utopia`)
-    chunk_fn = jax.jit(
-        jax.vmap(chunk, axis_name=PREF_AXIS), donate_argnums=0, out_shardings=(sharded, sharded)
-    )
+    chunk_fn = jax.jit(per_device(jax.vmap(chunk, axis_name=PREF_AXIS)), donate_argnums=0)
     state = init_fn(keys_dev, prefs_dev)
     abstract = jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape, x.dtype), (state, prefs_dev))
     template = jax.eval_shape(jax.vmap(trainer.step, axis_name=PREF_AXIS), *abstract)[1]
@@ -531,7 +537,9 @@ def run_sweep(
         bar.close()
 
     evaluate_one = make_evaluate(train_cfg, env, config.eval_episodes)
-    evaluate = jax.jit(jax.vmap(lambda s, k: evaluate_one(s, jax.random.wrap_key_data(k))))
+    evaluate = jax.jit(
+        per_device(jax.vmap(lambda s, k: evaluate_one(s, jax.random.wrap_key_data(k))))
+    )
     evaluation = distributed.to_host(evaluate(state, eval_keys_dev))
     wall = time.perf_counter() - wall_start
 

@@ -11,8 +11,10 @@ trains every preference together, so it can estimate `z` from what all of them r
 
 `max_p` and `min_p` are collectives over the vmapped preference axis (`jax.lax.pmax` /
 `pmin` on the axis named `PREF_AXIS`), so the caller must run under
-`jax.vmap(..., axis_name=PREF_AXIS)` (as `sweep.run_sweep` does). Max and min ignore
-duplicates, so the padding the sweep adds (copies of the last preference) changes
+`jax.vmap(..., axis_name=PREF_AXIS)` (as `sweep.run_sweep` does); where the preferences
+are also split over devices (`jax.shard_map` on a mesh axis named `DEVICE_AXIS`, as the
+sweep does), the collectives span that axis too, i.e. every preference of the sweep. Max
+and min ignore duplicates, so the padding the sweep adds (copies of the last preference) changes
 nothing. `best` is carried in the training state, so the estimate is pure, deterministic,
 and the same whether a run is split into chunks or not. Imports nothing but jax.
 """
@@ -26,6 +28,8 @@ from flax import struct
 
 # the name of the vmapped preference axis the estimate is shared over
 PREF_AXIS = "prefs"
+# the name of the mesh axis the sweep splits the preferences over (`jax.shard_map`)
+DEVICE_AXIS = "devices"
 UTOPIA_MODES = ("fixed", "estimated")
 
 
@@ -68,8 +72,23 @@ def estimate(
       preference.
     """
     chex.assert_rank(j_hat, 1)
-    hi = jax.lax.pmax(j_hat, axis_name)
-    lo = jax.lax.pmin(j_hat, axis_name)
+    axes = _bound((DEVICE_AXIS, axis_name))
+    hi = jax.lax.pmax(j_hat, axes)
+    lo = jax.lax.pmin(j_hat, axes)
     best = jnp.maximum(state.best, hi)
     z = best + margin * jnp.maximum(best - lo, min_spread)
     return UtopiaState(best=best), z
+
+
+def _bound(names: tuple[str, ...]) -> tuple[str, ...]:
+    """The axis names of `names` bound where this is traced, the last one required (the
+    device axis exists only under the sweep's `shard_map`)."""
+    *optional, required = names
+    bound = []
+    for name in optional:
+        try:
+            jax.lax.axis_size(name)
+        except NameError:
+            continue
+        bound.append(name)
+    return (*bound, required)
