@@ -43,7 +43,9 @@ import jax.numpy as jnp
 from wcac_jax import envs, pareto
 from wcac_jax.config import TrainConfig
 from wcac_jax.envs.wrappers import EpisodeWrapper
-from wcac_jax.train import make_trainer
+from wcac_jax.ppo import PPOConfig
+from wcac_jax.trainers import make_trainer
+from wcac_jax.utopia import PREF_AXIS
 
 _LAST_CORES = {}
 
@@ -97,8 +99,10 @@ def bench_sweep(trainer, config, prefs, iters: int) -> dict:
     """(b): all preferences in one `jit(vmap(run))`."""
     keys = jax.random.split(jax.random.key(0), prefs.shape[0])
     state = jax.jit(jax.vmap(trainer.init))(keys, prefs)
-    run = jax.jit(jax.vmap(functools.partial(trainer.run, num_iterations=iters)))
-    fn, compile_s = _compile(run, state, prefs)
+    # the preference axis is named, as in the sweep (the practical update shares its
+    # estimated utopia point over it)
+    run = functools.partial(trainer.run, num_iterations=iters)
+    fn, compile_s = _compile(jax.jit(jax.vmap(run, axis_name=PREF_AXIS)), state, prefs)
     (state, _), _ = _timed(fn, state, prefs)  # warm-up chunk (moves off the start state)
     _, run_s = _timed(fn, state, prefs)
     steps = prefs.shape[0] * iters * config.env_steps_per_iteration
@@ -148,6 +152,13 @@ def main(argv=None):
         action="store_true",
         help="every engine x physics at N = 16 and 128 (P = --prefs), one subprocess each",
     )
+    parser.add_argument(
+        "--update",
+        choices=["paper", "practical"],
+        default="paper",
+        help="the paper's update (TrainConfig: the size flags below) or the practical one "
+        "(PPOConfig's defaults; its shared utopia point rules out the sequential baseline)",
+    )
     parser.add_argument("--prefs", type=int, default=9, help="P")
     parser.add_argument("--envs-per-pref", type=int, default=16, help="N")
     parser.add_argument("--critic-steps", type=int, default=10, help="K")
@@ -173,19 +184,23 @@ def main(argv=None):
 
     env_kwargs = {"physics": args.physics, "engine": args.engine} if args.env == "walker2d" else {}
     env = envs.make(args.env, **env_kwargs)
-    config = TrainConfig(
-        num_envs=args.envs_per_pref,
-        critic_steps=args.critic_steps,
-        rollout_steps=args.rollout_steps,
-        width=args.width,
-        depth=args.depth,
-        network=args.network,
-        normalize_obs=args.env != "concave_bandit",
-    )
+    if args.update == "practical":  # PPOConfig's own sizes but N; no sequential baseline
+        config = PPOConfig(num_envs=args.envs_per_pref)
+        args.skip = sorted({*args.skip, "sequential"})
+    else:
+        config = TrainConfig(
+            num_envs=args.envs_per_pref,
+            critic_steps=args.critic_steps,
+            rollout_steps=args.rollout_steps,
+            width=args.width,
+            depth=args.depth,
+            network=args.network,
+            normalize_obs=args.env != "concave_bandit",
+        )
     trainer = make_trainer(config, env)
     prefs = jnp.asarray(pareto.simplex_lattice(env.num_objectives, args.prefs), jnp.float32)
     batch = args.prefs * args.envs_per_pref
-    raw_steps = args.iterations * (args.critic_steps + args.rollout_steps)
+    raw_steps = args.iterations * config.env_steps_per_iteration // config.num_envs
 
     result = {
         "machine": f"{platform.machine()}, {os.cpu_count()} CPUs",
@@ -198,11 +213,12 @@ def main(argv=None):
         "device_count": jax.device_count(),
         "P": args.prefs,
         "N": args.envs_per_pref,
-        "K": args.critic_steps,
-        "L": args.rollout_steps,
-        "width": args.width,
-        "depth": args.depth,
-        "network": args.network,
+        "update": args.update,
+        "K": getattr(config, "critic_steps", None),
+        "L": config.rollout_steps,
+        "width": config.width,
+        "depth": config.depth,
+        "network": getattr(config, "network", "practical"),
         "timed_iterations": args.iterations,
     }
     for name, fn in (
