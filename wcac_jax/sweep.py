@@ -495,7 +495,7 @@ def run_sweep(
     if progress is not False and writer:
         print(
             f"[sweep] compiling the training program for {n_prefs} preferences "
-            f"(a minute or two on a 2-core CPU)",
+            f"(with MJX on a CPU, a minute or more)",
             file=sys.stderr,
             flush=True,
         )
