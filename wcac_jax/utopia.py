@@ -72,7 +72,7 @@ def estimate(
       preference.
     """
     chex.assert_rank(j_hat, 1)
-    axes = _bound((DEVICE_AXIS, axis_name))
+    axes = (DEVICE_AXIS, axis_name) if _is_bound(DEVICE_AXIS) else axis_name
     hi = jax.lax.pmax(j_hat, axes)
     lo = jax.lax.pmin(j_hat, axes)
     best = jnp.maximum(state.best, hi)
@@ -80,15 +80,11 @@ def estimate(
     return UtopiaState(best=best), z
 
 
-def _bound(names: tuple[str, ...]) -> tuple[str, ...]:
-    """The axis names of `names` bound where this is traced, the last one required (the
-    device axis exists only under the sweep's `shard_map`)."""
-    *optional, required = names
-    bound = []
-    for name in optional:
-        try:
-            jax.lax.axis_size(name)
-        except NameError:
-            continue
-        bound.append(name)
-    return (*bound, required)
+def _is_bound(name: str) -> bool:
+    """Whether the axis `name` is bound where this is traced (the device axis exists only
+    under the sweep's `shard_map`)."""
+    try:
+        jax.lax.axis_size(name)
+    except NameError:
+        return False
+    return True
