@@ -12,9 +12,10 @@ randomness from `fold_in(fold_in(key(seed), i), t)`, and every chunk is the same
 compiled program of `ceil(T / chunks)` iterations whose iterations past `T` leave the
 state untouched. `--resume` restores the last checkpoint and continues bit for bit.
 
-Devices: the preference axis is sharded over all local devices (a 1-D mesh named
-`"prefs"`); a preference count that does not divide evenly is padded by repeating the
-last preference, and the padding is dropped from the results. Several processes
+Devices: the preference axis is split over every device (a 1-D mesh whose axis is
+`utopia.DEVICE_AXIS`), and each device runs the vmapped program on its own preferences
+(`jax.shard_map`); a preference count that does not divide evenly is padded by repeating
+the last preference, and the padding is dropped from the results. Several processes
 (`wcac_jax.distributed`; `--coordinator` on the command line): the mesh spans every
 process's devices, each process runs its shards, and only process 0 reads and writes
 `out`.
