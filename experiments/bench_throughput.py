@@ -163,7 +163,9 @@ def main(argv=None):
     parser.add_argument("--envs-per-pref", type=int, default=16, help="N")
     parser.add_argument("--critic-steps", type=int, default=10, help="K")
     parser.add_argument("--rollout-steps", type=int, default=10, help="L")
-    parser.add_argument("--width", type=int, default=256)
+    parser.add_argument(
+        "--width", type=int, default=None, help="hidden width (default: 256, or PPOConfig's)"
+    )
     parser.add_argument("--depth", type=int, default=2)
     parser.add_argument("--network", default="paper")
     parser.add_argument("--iterations", type=int, default=20, help="timed iterations")
@@ -186,13 +188,14 @@ def main(argv=None):
     env = envs.make(args.env, **env_kwargs)
     if args.update == "practical":  # PPOConfig's own sizes but N; no sequential baseline
         config = PPOConfig(num_envs=args.envs_per_pref)
+        config = config.replace(width=args.width or config.width)
         args.skip = sorted({*args.skip, "sequential"})
     else:
         config = TrainConfig(
             num_envs=args.envs_per_pref,
             critic_steps=args.critic_steps,
             rollout_steps=args.rollout_steps,
-            width=args.width,
+            width=args.width or 256,
             depth=args.depth,
             network=args.network,
             normalize_obs=args.env != "concave_bandit",
@@ -292,7 +295,7 @@ def run_grid(args, out: str) -> dict:
                     *("--envs-per-pref", str(n), "--iterations", str(iters)),
                     *("--critic-steps", str(args.critic_steps)),
                     *("--rollout-steps", str(args.rollout_steps)),
-                    *("--width", str(args.width), "--depth", str(args.depth)),
+                    *("--width", str(args.width or 256), "--depth", str(args.depth)),
                     *("--network", args.network, "--skip", "sequential", "--out", row_out),
                 ]
                 if args.devices is not None:

@@ -53,7 +53,7 @@ CONFIGS = {
     "paper-warm": TrainConfig(critic_warm_start=True, projection_radius=math.inf),
     # The practical preset (wcac_jax.presets): the same smoothed weighted-Chebyshev
     # direction, optimised as PPO (GAE, clipped ratio, 10 epochs x 8 minibatches, Adam,
-    # observation and return normalisation, 64x64 tanh networks, a utopia point the sweep
+    # observation and return normalisation, 128x128 tanh networks, a utopia point the sweep
     # estimates from all preferences). A different update, not a paper setting.
     "practical": presets.preset("practical"),
 }
@@ -90,6 +90,19 @@ def train_config(name: str, **changes) -> TrainConfig:
     if name not in CONFIGS:
         fail(f"unknown --config {name!r}; valid: {', '.join(CONFIGS)}")
     return CONFIGS[name].replace(**{k: v for k, v in changes.items() if v is not None})
+
+
+def with_fixed_utopia(config, j_ub: str):
+    """`config` with the fixed utopia point `j_ub` ("a,b"; for the practical preset also
+    `utopia="fixed"`), or a one-line exit naming the bad value."""
+    try:
+        point = tuple(float(v) for v in j_ub.split(","))
+        changes = {"j_ub": point}
+        if hasattr(config, "utopia"):
+            changes["utopia"] = "fixed"
+        return config.replace(**changes)
+    except ValueError as e:
+        fail(f"--j-ub {j_ub!r}: {e}")
 
 
 def steps_per_pref(scale: float, steps: int | None) -> int:

@@ -136,6 +136,12 @@ def main(argv=None) -> int:
     p.add_argument("--width", type=int, default=None, help="(default: the config's)")
     p.add_argument("--depth", type=int, default=None, help="(default: the config's)")
     p.add_argument(
+        "--j-ub",
+        default=None,
+        metavar="Z0,Z1",
+        help="a fixed utopia point (default: the config's; the practical preset estimates one)",
+    )
+    p.add_argument(
         "--resummarize",
         action="store_true",
         help="recompute the metrics of a finished --out from its saved returns, no training",
@@ -160,6 +166,8 @@ def main(argv=None) -> int:
     base = common.train_config(
         args.config, num_envs=args.envs_per_pref, width=args.width, depth=args.depth
     )
+    if args.j_ub is not None:
+        base = common.with_fixed_utopia(base, args.j_ub)
     steps = common.steps_per_pref(args.scale, args.steps_per_pref)
     common.make_out(args.out, args.resume)
 

@@ -216,30 +216,46 @@ def test_falls_per_episode_from_lengths():
     assert walker2d_common.falls_per_episode(500.0, 500, 1) is None
 
 
-def test_committed_walker2d_results_are_what_their_returns_give(tmp_path):
+@pytest.mark.parametrize(
+    "name",
+    [
+        "walker2d_front",
+        "walker2d_front_1M",
+        "walker2d_front_paper_v5",
+        "walker2d_front_practical_v5",
+        "walker2d_front_practical_v5_w128",
+        "walker2d_front_practical_v5_fixed_utopia",
+    ],
+)
+def test_committed_walker2d_results_are_what_their_returns_give(tmp_path, name):
     """`--resummarize` recomputes the committed summaries from the committed returns:
     what the README quotes is what the code computes, with every policy in the default
-    reference box and every control per step within its physical maximum of 6."""
+    reference box and every control per step within its physical maximum of 6 (exact
+    where every episode fell, else both ends of its range)."""
     import walker2d_front
     from pymoo.indicators.hv import HV
 
-    for name in ("walker2d_front", "walker2d_front_1M"):
-        committed = os.path.join(ROOT, "experiments", "results", name)
-        shutil.copytree(committed, tmp_path / name)
-        walker2d_front.resummarize(str(tmp_path / name))
-        with open(os.path.join(committed, "summary.json")) as f:
-            before = json.load(f)
-        after = json.loads((tmp_path / name / "summary.json").read_text())
-        assert after == before, name
-        for direction, res in after["directions"].items():
-            points = np.array([[p["forward_return"], p["control_return"]] for p in res["policies"]])
-            assert res["hv_ref"] == [-500.0, -3000.0] and res["outside_hv_ref"] == []
-            for table in res["hypervolume_by_ref"]:
-                ref = np.array(table["hv_ref"])
-                inside = np.all(points > ref, axis=1)
-                assert table["outside"] == np.flatnonzero(~inside).tolist()
-                assert table["hypervolume"] == pytest.approx(HV(ref_point=-ref)(-points[inside]))
-            for pol in res["policies"]:
+    committed = os.path.join(ROOT, "experiments", "results", name)
+    shutil.copytree(committed, tmp_path / name)
+    walker2d_front.resummarize(str(tmp_path / name))
+    with open(os.path.join(committed, "summary.json")) as f:
+        before = json.load(f)
+    after = json.loads((tmp_path / name / "summary.json").read_text())
+    assert after == before, name
+    for direction, res in after["directions"].items():
+        points = np.array([[p["forward_return"], p["control_return"]] for p in res["policies"]])
+        assert res["hv_ref"] == [-500.0, -3000.0] and res["outside_hv_ref"] == []
+        for table in res["hypervolume_by_ref"]:
+            ref = np.array(table["hv_ref"])
+            inside = np.all(points > ref, axis=1)
+            assert table["outside"] == np.flatnonzero(~inside).tolist()
+            assert table["hypervolume"] == pytest.approx(HV(ref_point=-ref)(-points[inside]))
+        for pol in res["policies"]:
+            if pol["falls_per_episode"] is None:  # some episode may have lasted
+                assert pol["episode_length"] > 1, (name, direction, pol)
+                for control in pol["mean_control_per_step_range"]:
+                    assert 0 <= control <= 6.0, (name, direction, pol)
+            else:
                 assert pol["falls_per_episode"] == 1.0  # every episode fell: exact
                 assert 0 <= pol["mean_control_per_step"] <= 6.0, (name, direction, pol)
 
@@ -270,6 +286,9 @@ def test_named_configs_keep_the_paper_setting_apart():
     assert walker2d_common.steps_per_pref(0.2, None) == 200_000
     assert walker2d_common.steps_per_pref(1.0, 123) == 123
     assert walker2d_common.train_config("paper", width=None, depth=1).depth == 1
+    fixed = walker2d_common.with_fixed_utopia(walker2d_common.CONFIGS["practical"], "400,100")
+    assert (fixed.utopia, fixed.j_ub) == ("fixed", (400.0, 100.0))
+    assert walker2d_common.with_fixed_utopia(paper, "3,4") == paper.replace(j_ub=(3.0, 4.0))
 
 
 @pytest.mark.parametrize(
@@ -280,6 +299,8 @@ def test_named_configs_keep_the_paper_setting_apart():
         ("walker2d_ablation.py", ["--seeds", "0"], "--seeds must be >= 1, got 0"),
         ("walker2d_ablation.py", ["--steps-per-pref", "-5"], "got -5"),
         ("walker2d_front.py", ["--resume"], "--resume: nothing to resume"),
+        ("walker2d_front.py", ["--j-ub", "400,x"], "--j-ub '400,x'"),
+        ("walker2d_front.py", ["--config", "practical", "--j-ub", "1e39,1"], "finite"),
     ],
 )
 def test_walker2d_scripts_reject_bad_input(tmp_path, script, args, named):

@@ -91,6 +91,18 @@ def test_config_validates_and_round_trips():
         ppo.PPOConfig(utopia="guess")
     with pytest.raises(ValueError, match="clip_eps must be > 0"):
         ppo.PPOConfig(clip_eps=0.0)
+    # finite in float64 but not in float32 (the program's type), or not finite at all
+    bad = {
+        "j_ub": (1e39, 1.0),
+        "mu": 1e39,
+        "learning_rate": float("inf"),
+        "ent_coef": float("nan"),
+        "utopia_margin": -1.0,
+        "log_std_init": float("inf"),
+    }
+    for name, value in bad.items():
+        with pytest.raises(ValueError, match=f"^{name} must be"):
+            ppo.PPOConfig(**{name: value})
     config = ppo.PPOConfig(j_ub=[1, 2], utopia="fixed")
     assert config.j_ub == (1.0, 2.0)
     assert config.env_steps_per_iteration == 16 * 128

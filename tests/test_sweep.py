@@ -263,6 +263,25 @@ def test_bad_input_exits_2_and_writes_nothing(args, message, tmp_path, capsys):
     assert not out.exists()
 
 
+PRACTICAL = ["--env", "concave_bandit", "--preset", "practical", "--quiet"]
+BAD_PRACTICAL = [
+    (["--utopia", "fixed", "--j-ub", "1e39,1"], r"j_ub must be finite in float32"),
+    (["--mu", "1e39"], "mu must be finite in float32, got 1e[+]39"),
+    (["--utopia", "guess"], "'guess'"),
+]
+
+
+@pytest.mark.parametrize("args,message", BAD_PRACTICAL, ids=[" ".join(a) for a, _ in BAD_PRACTICAL])
+def test_bad_practical_input_exits_2_and_writes_nothing(args, message, tmp_path, capsys):
+    out = tmp_path / "out"
+    rc = cli.main([*PRACTICAL, *args, "--out", str(out)])
+    err = capsys.readouterr().err
+    assert rc == 2
+    assert len(err.strip().splitlines()) == 1 and err.startswith("error: ")
+    assert __import__("re").search(message, err), err
+    assert not out.exists()
+
+
 def _tree(path):
     """Every file under `path` with its size and modification time."""
     out = {}

@@ -16,6 +16,18 @@ from wcac_jax.actor import ACTOR_OPTIMIZERS
 from wcac_jax.networks import NETWORK_KINDS
 from wcac_jax.scalarize import SCALARIZATIONS
 
+# The programs compute in float32: a value finite in float64 but not in float32 (e.g.
+# 1e39) would only show up later as a NaN "divergence".
+F32_MAX = 3.4028234663852886e38  # numpy.finfo(numpy.float32).max
+
+
+def finite_f32(value) -> bool:
+    """Whether `value` is a number that is finite in float32 (False for inf and NaN)."""
+    try:
+        return abs(float(value)) <= F32_MAX
+    except (TypeError, ValueError):
+        return False
+
 
 @dataclass(frozen=True)
 class TrainConfig:
@@ -94,23 +106,13 @@ class TrainConfig:
                 raise ValueError(f"{name} must be a positive integer, got {value!r}")
         if not 0.0 <= self.gamma < 1.0:
             raise ValueError(f"gamma must be in [0, 1), got {self.gamma!r}")
-        # the program computes in float32: a value finite in float64 but not in float32
-        # (e.g. 1e39) would only show up later as a NaN "divergence"
-        f32_max = 3.4028234663852886e38  # numpy.finfo(numpy.float32).max
-
-        def finite_f32(value) -> bool:
-            try:
-                return abs(float(value)) <= f32_max  # False for inf and NaN
-            except (TypeError, ValueError):
-                return False
-
         for name in ("mu", "actor_lr", "critic_lr", "projection_radius"):
             value = getattr(self, name)
             if not value > 0:  # also rejects NaN
                 raise ValueError(f"{name} must be > 0, got {value!r}")
             if name != "projection_radius" and not finite_f32(value):
                 raise ValueError(
-                    f"{name} must be finite in float32 (< {f32_max:.4g}), got {value!r}"
+                    f"{name} must be finite in float32 (< {F32_MAX:.4g}), got {value!r}"
                 )
         if not finite_f32(self.log_std_init):
             raise ValueError(f"log_std_init must be finite, got {self.log_std_init!r}")
@@ -118,7 +120,7 @@ class TrainConfig:
             j_ub = tuple(float(v) for v in self.j_ub)
             if not all(finite_f32(v) for v in j_ub):
                 raise ValueError(
-                    f"j_ub must be finite in float32 (|x| < {f32_max:.4g}), got {list(self.j_ub)!r}"
+                    f"j_ub must be finite in float32 (|x| < {F32_MAX:.4g}), got {list(self.j_ub)!r}"
                 )
             object.__setattr__(self, "j_ub", j_ub)
         choices = {

@@ -43,6 +43,7 @@ from brax.training.acme import running_statistics, specs
 from flax import struct
 
 from wcac_jax import networks, scalarize, utopia
+from wcac_jax.config import finite_f32
 from wcac_jax.envs.wrappers import EpisodeWrapper
 from wcac_jax.train import (
     TRACED_DIRECTIONS,
@@ -99,7 +100,7 @@ class PPOConfig:
     max_grad_norm: float = 0.5
     vf_coef: float = 0.5
     ent_coef: float = 0.0
-    width: int = 64
+    width: int = 128
     depth: int = 2
     log_std_init: float = 0.0
     normalize_obs: bool = True
@@ -147,13 +148,17 @@ class PPOConfig:
             value = getattr(self, name)
             if not value > 0:  # also rejects NaN
                 raise ValueError(f"{name} must be > 0, got {value!r}")
-        for name in ("vf_coef", "ent_coef", "utopia_margin"):
-            if not getattr(self, name) >= 0:
-                raise ValueError(f"{name} must be >= 0, got {getattr(self, name)!r}")
+            if not finite_f32(value):
+                raise ValueError(f"{name} must be finite in float32, got {value!r}")
+        for name in ("vf_coef", "ent_coef", "utopia_margin", "log_std_init"):
+            value = getattr(self, name)
+            if not (value >= 0 or name == "log_std_init") or not finite_f32(value):
+                bound = "finite in float32" if name == "log_std_init" else ">= 0 and finite"
+                raise ValueError(f"{name} must be {bound}, got {value!r}")
         if self.j_ub is not None:
             j_ub = tuple(float(v) for v in self.j_ub)
-            if not all(math.isfinite(v) for v in j_ub):
-                raise ValueError(f"j_ub must be finite, got {self.j_ub!r}")
+            if not all(finite_f32(v) for v in j_ub):
+                raise ValueError(f"j_ub must be finite in float32, got {self.j_ub!r}")
             object.__setattr__(self, "j_ub", j_ub)
         choices = {"scalarization": TRACED_DIRECTIONS, "utopia": utopia.UTOPIA_MODES}
         for name, valid in choices.items():
