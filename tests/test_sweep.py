@@ -252,15 +252,19 @@ BAD = [
 ]
 
 
-@pytest.mark.parametrize("args,message", BAD, ids=[" ".join(a) for a, _ in BAD])
-def test_bad_input_exits_2_and_writes_nothing(args, message, tmp_path, capsys):
-    out = tmp_path / "out"
-    rc = cli.main([*TINY, *args, "--out", str(out)])
+def _assert_rejected(argv, message, out, capsys):
+    """`argv` exits 2 with one `error:` line matching `message`, and `out` is not made."""
+    rc = cli.main([*argv, "--out", str(out)])
     err = capsys.readouterr().err
     assert rc == 2
     assert len(err.strip().splitlines()) == 1 and err.startswith("error: ")
     assert __import__("re").search(message, err), err
     assert not out.exists()
+
+
+@pytest.mark.parametrize("args,message", BAD, ids=[" ".join(a) for a, _ in BAD])
+def test_bad_input_exits_2_and_writes_nothing(args, message, tmp_path, capsys):
+    _assert_rejected([*TINY, *args], message, tmp_path / "out", capsys)
 
 
 PRACTICAL = ["--env", "concave_bandit", "--preset", "practical", "--quiet"]
@@ -273,13 +277,7 @@ BAD_PRACTICAL = [
 
 @pytest.mark.parametrize("args,message", BAD_PRACTICAL, ids=[" ".join(a) for a, _ in BAD_PRACTICAL])
 def test_bad_practical_input_exits_2_and_writes_nothing(args, message, tmp_path, capsys):
-    out = tmp_path / "out"
-    rc = cli.main([*PRACTICAL, *args, "--out", str(out)])
-    err = capsys.readouterr().err
-    assert rc == 2
-    assert len(err.strip().splitlines()) == 1 and err.startswith("error: ")
-    assert __import__("re").search(message, err), err
-    assert not out.exists()
+    _assert_rejected([*PRACTICAL, *args], message, tmp_path / "out", capsys)
 
 
 def _tree(path):
