@@ -224,6 +224,7 @@ def test_falls_per_episode_from_lengths():
         "walker2d_front_paper_v5",
         "walker2d_front_practical_v5",
         "walker2d_front_practical_v5_w128",
+        "walker2d_front_practical_v5_w128_seed1",
         "walker2d_front_practical_v5_fixed_utopia",
     ],
 )
