@@ -164,7 +164,10 @@ def main(argv=None):
     parser.add_argument("--critic-steps", type=int, default=10, help="K")
     parser.add_argument("--rollout-steps", type=int, default=10, help="L")
     parser.add_argument(
-        "--width", type=int, default=None, help="hidden width (default: 256, or PPOConfig's)"
+        "--width",
+        type=int,
+        default=None,
+        help="hidden width (default: TrainConfig's or PPOConfig's)",
     )
     parser.add_argument("--depth", type=int, default=2)
     parser.add_argument("--network", default="paper")
@@ -195,7 +198,7 @@ def main(argv=None):
             num_envs=args.envs_per_pref,
             critic_steps=args.critic_steps,
             rollout_steps=args.rollout_steps,
-            width=args.width or 256,
+            width=args.width or TrainConfig.width,
             depth=args.depth,
             network=args.network,
             normalize_obs=args.env != "concave_bandit",
@@ -295,7 +298,7 @@ def run_grid(args, out: str) -> dict:
                     *("--envs-per-pref", str(n), "--iterations", str(iters)),
                     *("--critic-steps", str(args.critic_steps)),
                     *("--rollout-steps", str(args.rollout_steps)),
-                    *("--width", str(args.width or 256), "--depth", str(args.depth)),
+                    *("--width", str(args.width or TrainConfig.width), "--depth", str(args.depth)),
                     *("--network", args.network, "--skip", "sequential", "--out", row_out),
                 ]
                 if args.devices is not None:

@@ -150,11 +150,12 @@ class PPOConfig:
                 raise ValueError(f"{name} must be > 0, got {value!r}")
             if not finite_f32(value):
                 raise ValueError(f"{name} must be finite in float32, got {value!r}")
-        for name in ("vf_coef", "ent_coef", "utopia_margin", "log_std_init"):
+        for name in ("vf_coef", "ent_coef", "utopia_margin"):
             value = getattr(self, name)
-            if not (value >= 0 or name == "log_std_init") or not finite_f32(value):
-                bound = "finite in float32" if name == "log_std_init" else ">= 0 and finite"
-                raise ValueError(f"{name} must be {bound}, got {value!r}")
+            if not (value >= 0 and finite_f32(value)):
+                raise ValueError(f"{name} must be >= 0 and finite, got {value!r}")
+        if not finite_f32(self.log_std_init):
+            raise ValueError(f"log_std_init must be finite in float32, got {self.log_std_init!r}")
         if self.j_ub is not None:
             j_ub = tuple(float(v) for v in self.j_ub)
             if not all(finite_f32(v) for v in j_ub):
