@@ -344,3 +344,43 @@ def test_nan_stops_the_sweep_naming_preference_and_iteration(tmp_path, capsys):
     assert rc == 3
     assert "NaN" in err and "preference #" in err and "iteration" in err, err
     assert not (out / "front.json").exists()
+
+
+def test_chunk_padding_runs_no_iterations():
+    """The last chunk's padding (iterations past `n_iters`) is skipped, not trained in
+    full and thrown away: a step that reports each call to the host sees only the real
+    iterations, and padded ones leave the state as it is with zero metrics."""
+    from typing import NamedTuple
+
+    import jax
+    import jax.numpy as jnp
+
+    from wcac_jax.train import Trainer
+    from wcac_jax.utopia import PREF_AXIS
+
+    class State(NamedTuple):
+        iteration: jax.Array
+        total: jax.Array
+
+    calls = []
+
+    def step(state, pref):
+        jax.debug.callback(lambda it: calls.append(int(it)), state.iteration)
+        new = State(state.iteration + 1, state.total + pref[0])
+        return new, {"seen": state.iteration + 1}
+
+    trainer = Trainer(None, None, step, None, None, None, None, None)
+    n_iters, chunk_len = 5, 3  # the second chunk runs 2 iterations and pads 1
+    chunk = jax.jit(jax.vmap(sweep.make_chunk(trainer, n_iters, chunk_len), axis_name=PREF_AXIS))
+    state = State(jnp.zeros(2, jnp.int32), jnp.zeros(2))
+    prefs = jnp.array([[1.0, 0.0], [0.5, 0.5]])
+    state, first = chunk(state, prefs)
+    state, second = chunk(state, prefs)
+    jax.effects_barrier()
+    np.testing.assert_array_equal(state.iteration, [5, 5])
+    np.testing.assert_allclose(state.total, [5.0, 2.5])
+    np.testing.assert_array_equal(first["seen"], [[1, 2, 3]] * 2)
+    np.testing.assert_array_equal(second["seen"], [[4, 5, 0]] * 2)
+    # 2 preferences x 5 real iterations; the padded 6th never ran (a per-preference
+    # predicate gave 12 calls, iteration 5 included)
+    assert sorted(calls) == sorted(list(range(5)) * 2), calls

@@ -295,6 +295,29 @@ def _metric_template(trainer, state, pref) -> dict:
     return jax.tree.map(lambda s: jnp.zeros(s.shape, s.dtype), shapes)
 
 
+def make_chunk(trainer: Trainer, n_iters: int, chunk_len: int):
+    """`chunk(state, pref) -> (state, metrics [chunk_len, ...])`: `chunk_len` iterations
+    of `trainer.step`, to be called under `jax.vmap(..., axis_name=PREF_AXIS)`.
+
+    Iterations at or past `n_iters` (the last chunk's padding when `chunk_len` does not
+    divide `n_iters`) leave the state as it is and give zero metrics, and cost nothing:
+    every preference is at the same iteration, so the predicate is reduced over the
+    preference axis to ONE scalar and `cond` runs one branch. (A per-preference predicate
+    would be batched, and `vmap` turns a batched `cond` into a `select` that runs both
+    branches: the padding was trained in full and thrown away.)
+    """
+
+    def chunk(state, pref):
+        def body(state, _):
+            active = jax.lax.pmin(state.iteration, PREF_AXIS) < n_iters
+            template = _metric_template(trainer, state, pref)
+            return jax.lax.cond(active, trainer.step, lambda s, p: (s, template), state, pref)
+
+        return jax.lax.scan(body, state, None, length=chunk_len)
+
+    return chunk
+
+
 class LoadedSweep(NamedTuple):
     """A sweep restored from its output directory (see `load_sweep`).
 
@@ -434,14 +457,7 @@ def run_sweep(
 
     trainer = make_trainer(train_cfg, env)
     chunk_len = math.ceil(n_iters / chunks)
-
-    def chunk(state, pref):
-        def body(state, _):
-            active = state.iteration < n_iters
-            template = _metric_template(trainer, state, pref)
-            return jax.lax.cond(active, trainer.step, lambda s, p: (s, template), state, pref)
-
-        return jax.lax.scan(body, state, None, length=chunk_len)
+    chunk = make_chunk(trainer, n_iters, chunk_len)
 
     # Every leaf of the state and metrics carries the preference axis first; each device
     # runs the vmapped program on its own preferences (`shard_map`), so host callbacks
