@@ -52,7 +52,7 @@ CONFIGS = {
     # Algorithm 2 became the default; the Walker2d results recorded before then).
     "paper-warm": TrainConfig(critic_warm_start=True, projection_radius=math.inf),
     # The practical preset (wcac_jax.presets): the same smoothed weighted-Chebyshev
-    # direction, optimised as PPO (GAE, clipped ratio, 10 epochs x 8 minibatches, Adam,
+    # direction, optimised as PPO (GAE, clipped ratio, 5 epochs x 16 minibatches, Adam,
     # observation and return normalisation, 128x128 tanh networks, a utopia point the sweep
     # estimates from all preferences). A different update, not a paper setting.
     "practical": presets.preset("practical"),

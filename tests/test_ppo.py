@@ -69,7 +69,8 @@ def test_return_normaliser_by_hand():
 
 def test_observation_normaliser_by_hand():
     env = envs.make("concave_bandit")
-    trainer = ppo.make_trainer(ppo.PPOConfig(num_envs=2, rollout_steps=4, obs_clip=10.0), env)
+    config = ppo.PPOConfig(num_envs=2, rollout_steps=4, num_minibatches=2, obs_clip=10.0)
+    trainer = ppo.make_trainer(config, env)
     stats = running_statistics.update(
         running_statistics.init_state(specs.Array((1,), jnp.float32)), jnp.array([[0.0], [2.0]])
     )  # mean 1, std 1

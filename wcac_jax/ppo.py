@@ -90,8 +90,8 @@ class PPOConfig:
     num_envs: int = 16
     rollout_steps: int = 128
     num_iterations: int = 100
-    num_epochs: int = 10
-    num_minibatches: int = 8
+    num_epochs: int = 5
+    num_minibatches: int = 16
     gamma: float = 0.99
     gae_lambda: float = 0.95
     clip_eps: float = 0.2

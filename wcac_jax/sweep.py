@@ -510,9 +510,10 @@ def run_sweep(
 
     done_iters = int(np.asarray(state.iteration.addressable_shards[0].data)[0])
     if progress is not False and writer:
+        slow = env.backend == "mjx" and jax.default_backend() == "cpu"
         print(
-            f"[sweep] compiling the training program for {n_prefs} preferences "
-            f"(with MJX on a CPU, a minute or more)",
+            f"[sweep] compiling the training program for {n_prefs} preferences"
+            + (" (MJX on a CPU: a minute or more)" if slow else ""),
             file=sys.stderr,
             flush=True,
         )
