@@ -179,7 +179,8 @@ def policy_summary(row: dict, episode_length: int, episodes: int) -> dict:
     `H = L - f`, and per evaluated step the mean forward speed is `(R_0 - H) / L` m/s and
     the mean control energy `sum(a^2)` is `(H - R_1) / L` (at most 6). `f` comes from the
     episode lengths (`falls_per_episode`); when they leave it open, both are `None` and
-    `*_range` gives their bounds over the possible `f`.
+    `*_range` gives their bounds over the possible `f` (which the control return bounds
+    too: the energy is never negative, so `f <= L - R_1`).
 
     Args:
       row: a `front.json` preference row (`pref`, `return` [2], `episode_length`).
@@ -200,12 +201,14 @@ def policy_summary(row: dict, episode_length: int, episodes: int) -> dict:
         out["mean_speed_m_per_s"] = (forward - (length - fell)) / length
         out["mean_control_per_step"] = (length - fell - control) / length
     else:
-        # survivors s <= (n L - n) / (T - 1), so f >= 1 - s_max / n
+        # survivors s <= (n L - n) / (T - 1), so f >= 1 - s_max / n; and the control
+        # energy is >= 0, so the healthy steps L - f are at least R_1: f <= L - R_1
         s_max = (episodes * length - episodes) // max(episode_length - 1, 1)
         lo = max(0.0, 1.0 - s_max / episodes)
+        hi = min(1.0, max(lo, length - control))
         out["mean_speed_m_per_s"] = out["mean_control_per_step"] = None
-        out["mean_speed_m_per_s_range"] = [(forward - length + f) / length for f in (lo, 1.0)]
-        out["mean_control_per_step_range"] = [(length - f - control) / length for f in (1.0, lo)]
+        out["mean_speed_m_per_s_range"] = [(forward - length + f) / length for f in (lo, hi)]
+        out["mean_control_per_step_range"] = [(length - f - control) / length for f in (hi, lo)]
     return out
 
 

@@ -205,6 +205,14 @@ def test_walker2d_policy_summary_by_hand():
     assert s["falls_per_episode"] is None and s["mean_control_per_step"] is None
     np.testing.assert_allclose(s["mean_control_per_step_range"], [0.198, 0.2])
     np.testing.assert_allclose(s["mean_speed_m_per_s_range"], [0.2, 0.202])
+    # a policy that stands with almost no torque: 8 full episodes, control return 499.6 >
+    # 499, so no episode can have fallen on its last step beyond f = 500 - 499.6 = 0.4
+    # (else the energy would be negative): f in [0, 0.4], not [0, 1]
+    s = walker2d_common.policy_summary(
+        {"pref": [0, 1], "return": [499.0, 499.6], "episode_length": 500.0}, 500, 8
+    )
+    np.testing.assert_allclose(s["mean_control_per_step_range"], [0.0, 0.4 / 500], atol=1e-12)
+    np.testing.assert_allclose(s["mean_speed_m_per_s_range"], [-1 / 500, -0.6 / 500])
 
 
 def test_falls_per_episode_from_lengths():
@@ -226,6 +234,7 @@ def test_falls_per_episode_from_lengths():
         "walker2d_front_practical_v5_w128",
         "walker2d_front_practical_v5_w128_seed1",
         "walker2d_front_practical_v5_fixed_utopia",
+        "walker2d_front_practical_v5_e5x16",
     ],
 )
 def test_committed_walker2d_results_are_what_their_returns_give(tmp_path, name):
