@@ -237,6 +237,7 @@ def test_falls_per_episode_from_lengths():
         "walker2d_front_practical_v5_e5x16",
         "walker2d_front_practical_v5_e5x16_seed1",
         "walker2d_front_practical_v5_e5x16_seed2",
+        "walker2d_front_practical_v5_e5x16_fixed_utopia",
         "walker2d_front_practical_v5_e5x32",
     ],
 )
