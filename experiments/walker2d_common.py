@@ -105,6 +105,17 @@ def with_fixed_utopia(config, j_ub: str):
         fail(f"--j-ub {j_ub!r}: {e}")
 
 
+def with_utopia_margin(config, margin: float):
+    """`config` (the practical preset) with the estimated utopia point's margin `margin`,
+    or a one-line exit naming the bad value."""
+    if not hasattr(config, "utopia_margin"):
+        fail("--utopia-margin applies to the practical preset only (its estimated utopia)")
+    try:
+        return config.replace(utopia_margin=margin)
+    except ValueError as e:
+        fail(f"--utopia-margin: {e}")
+
+
 def steps_per_pref(scale: float, steps: int | None) -> int:
     """Environment steps per preference: `steps`, or `scale` times the paper's 1M."""
     if steps is not None:

@@ -142,6 +142,12 @@ def main(argv=None) -> int:
         help="a fixed utopia point (default: the config's; the practical preset estimates one)",
     )
     p.add_argument(
+        "--utopia-margin",
+        type=float,
+        default=None,
+        help="the estimated utopia point's margin (practical preset; default: the config's)",
+    )
+    p.add_argument(
         "--resummarize",
         action="store_true",
         help="recompute the metrics of a finished --out from its saved returns, no training",
@@ -168,6 +174,8 @@ def main(argv=None) -> int:
     )
     if args.j_ub is not None:
         base = common.with_fixed_utopia(base, args.j_ub)
+    if args.utopia_margin is not None:
+        base = common.with_utopia_margin(base, args.utopia_margin)
     steps = common.steps_per_pref(args.scale, args.steps_per_pref)
     common.make_out(args.out, args.resume)
 

@@ -300,6 +300,8 @@ def test_named_configs_keep_the_paper_setting_apart():
     fixed = walker2d_common.with_fixed_utopia(walker2d_common.CONFIGS["practical"], "400,100")
     assert (fixed.utopia, fixed.j_ub) == ("fixed", (400.0, 100.0))
     assert walker2d_common.with_fixed_utopia(paper, "3,4") == paper.replace(j_ub=(3.0, 4.0))
+    practical = walker2d_common.CONFIGS["practical"]
+    assert walker2d_common.with_utopia_margin(practical, 0.02).utopia_margin == 0.02
 
 
 @pytest.mark.parametrize(
@@ -312,6 +314,8 @@ def test_named_configs_keep_the_paper_setting_apart():
         ("walker2d_front.py", ["--resume"], "--resume: nothing to resume"),
         ("walker2d_front.py", ["--j-ub", "400,x"], "--j-ub '400,x'"),
         ("walker2d_front.py", ["--config", "practical", "--j-ub", "1e39,1"], "finite"),
+        ("walker2d_front.py", ["--utopia-margin", "0.02"], "practical preset only"),
+        ("walker2d_front.py", ["--config", "practical", "--utopia-margin", "-1"], "got -1.0"),
     ],
 )
 def test_walker2d_scripts_reject_bad_input(tmp_path, script, args, named):

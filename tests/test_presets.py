@@ -61,6 +61,7 @@ def test_explicit_flags_override_the_preset():
     assert config.train == presets.BANDIT.replace(mu=0.01, scalarization="linear")
     config = _config("--preset", "practical", "--utopia", "fixed", "--j-ub", "1,2")
     assert config.train == PPOConfig(utopia="fixed", j_ub=(1.0, 2.0))
+    assert _config("--utopia-margin", "0.02").train == PPOConfig(utopia_margin=0.02)
     assert _config("--steps-per-pref", "5").steps_per_pref == 5
 
 
@@ -71,6 +72,7 @@ def test_explicit_flags_override_the_preset():
         (["--preset", "paper", "--num-epochs", "3"], "--num-epochs does not apply to the paper"),
         (["--utopia", "guess"], "utopia must be one of fixed, estimated; got 'guess'"),
         (["--num-minibatches", "7"], "num_minibatches 7 must divide"),
+        (["--utopia-margin", "-0.1"], "utopia_margin must be >= 0 and finite, got -0.1"),
     ],
 )
 def test_flags_that_do_not_fit_exit_2(args, message, tmp_path, capsys):

@@ -56,6 +56,7 @@ _CONFIG_FLAGS = (
     ("critic_lr", "critic_lr", "paper: beta"),
     ("actor_optimizer", "actor_optimizer", "paper: normalized, normalized_harmonic, adam, sgd"),
     ("utopia", "utopia", "practical: 'estimated' (by the sweep) or 'fixed' (--j-ub)"),
+    ("utopia_margin", "utopia_margin", "practical: the estimated utopia's margin over the best"),
     ("learning_rate", "learning_rate", "practical: Adam's step size"),
     ("num_epochs", "num_epochs", "practical: epochs per rollout"),
     ("num_minibatches", "num_minibatches", "practical: minibatches per epoch"),
@@ -71,6 +72,7 @@ _FLAG_TYPES = {
     "actor_lr": float,
     "critic_lr": float,
     "learning_rate": float,
+    "utopia_margin": float,
     "num_epochs": int,
     "num_minibatches": int,
 }
