@@ -92,28 +92,16 @@ def train_config(name: str, **changes) -> TrainConfig:
     return CONFIGS[name].replace(**{k: v for k, v in changes.items() if v is not None})
 
 
-def with_fixed_utopia(config, j_ub: str):
-    """`config` with the fixed utopia point `j_ub` ("a,b"; for the practical preset also
-    `utopia="fixed"`), or a one-line exit naming the bad value."""
-    try:
-        point = tuple(float(v) for v in j_ub.split(","))
-        changes = {"j_ub": point}
-        if hasattr(config, "utopia"):
-            changes["utopia"] = "fixed"
-        return config.replace(**changes)
-    except ValueError as e:
-        fail(f"--j-ub {j_ub!r}: {e}")
+def config_with_flags(name: str, args, **changes):
+    """The named configuration `name` with `changes` and then the sweep CLI's config flags
+    in `args` (`wcac_jax.cli.apply_config_flags`) applied, or a one-line exit naming the
+    bad flag or value."""
+    from wcac_jax import cli
 
-
-def with_utopia_margin(config, margin: float):
-    """`config` (the practical preset) with the estimated utopia point's margin `margin`,
-    or a one-line exit naming the bad value."""
-    if not hasattr(config, "utopia_margin"):
-        fail("--utopia-margin applies to the practical preset only (its estimated utopia)")
     try:
-        return config.replace(utopia_margin=margin)
-    except ValueError as e:
-        fail(f"--utopia-margin: {e}")
+        return cli.apply_config_flags(args, train_config(name, **changes), f"--config {name}")
+    except SweepError as err:
+        fail(err)
 
 
 def steps_per_pref(scale: float, steps: int | None) -> int:

@@ -14,9 +14,12 @@ order?); wall and compile seconds; the machine.
     python experiments/walker2d_front.py --scale 0.2 --out experiments/results/walker2d_front
     python experiments/walker2d_front.py --config mlp-adam     # a named departure
     python experiments/walker2d_front.py --config practical --out runs/walker2d_practical
+    python experiments/walker2d_front.py --config practical --anneal-lr --out runs/annealed
 
 `--scale` multiplies the paper's 1,000,000 env steps per preference. See
-`walker2d_common.py` for the named configurations.
+`walker2d_common.py` for the named configurations; the sweep CLI's training flags
+(`python -m wcac_jax.sweep --help`) change one, and `summary.json` records what they
+changed (`config_changes`).
 """
 
 from __future__ import annotations
@@ -34,7 +37,7 @@ matplotlib.use("Agg")
 import numpy as np  # noqa: E402
 import walker2d_common as common  # noqa: E402
 
-from wcac_jax import pareto, plot  # noqa: E402
+from wcac_jax import cli, pareto, plot  # noqa: E402
 from wcac_jax.sweep import PAPER_PREFS, SweepConfig  # noqa: E402
 
 HV_REF_RULE = (
@@ -129,24 +132,19 @@ def resummarize(out: str) -> None:
     finish(out, summary)
 
 
+def config_changes(named, config) -> dict:
+    """`{field: value}` of `config` where it differs from `named` (JSON-friendly)."""
+    before, after = named.to_dict(), config.to_dict()
+    return {k: v for k, v in after.items() if before[k] != v}
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     common.add_run_args(p, out="runs/walker2d_front")
     p.add_argument("--directions", nargs="+", default=["smooth_wc", "linear"])
-    p.add_argument("--width", type=int, default=None, help="(default: the config's)")
-    p.add_argument("--depth", type=int, default=None, help="(default: the config's)")
-    p.add_argument(
-        "--j-ub",
-        default=None,
-        metavar="Z0,Z1",
-        help="a fixed utopia point (default: the config's; the practical preset estimates one)",
-    )
-    p.add_argument(
-        "--utopia-margin",
-        type=float,
-        default=None,
-        help="the estimated utopia point's margin (practical preset; default: the config's)",
-    )
+    # the sweep CLI's training-config flags (--width, --depth, --j-ub, --utopia-margin,
+    # --learning-rate, ...): each changes the named --config (recorded in summary.json)
+    cli.add_config_flags(p, skip=("envs_per_pref", "scalarization"))
     p.add_argument(
         "--resummarize",
         action="store_true",
@@ -169,18 +167,16 @@ def main(argv=None) -> int:
         print(f"recomputed the metrics in {args.out}")
         return 0
 
-    base = common.train_config(
-        args.config, num_envs=args.envs_per_pref, width=args.width, depth=args.depth
-    )
-    if args.j_ub is not None:
-        base = common.with_fixed_utopia(base, args.j_ub)
-    if args.utopia_margin is not None:
-        base = common.with_utopia_margin(base, args.utopia_margin)
+    named = common.train_config(args.config)
+    base = common.config_with_flags(args.config, args, num_envs=args.envs_per_pref)
     steps = common.steps_per_pref(args.scale, args.steps_per_pref)
     common.make_out(args.out, args.resume)
 
     summary = {
         "config_name": args.config,
+        # the fields the flags changed from the named config (the full config is in each
+        # direction's config.json)
+        "config_changes": config_changes(named, base),
         "scale": steps / common.PAPER_STEPS_PER_PREF,
         "steps_per_pref": steps,
         "physics": args.physics,

@@ -1,5 +1,6 @@
 """The experiment scripts at their quickest: they run and write every field."""
 
+import argparse
 import json
 import os
 import shutil
@@ -15,8 +16,9 @@ sys.path.insert(0, os.path.join(ROOT, "experiments"))
 import pareto_exploration  # noqa: E402
 import walker2d_ablation  # noqa: E402
 import walker2d_common  # noqa: E402
+import walker2d_front  # noqa: E402
 
-from wcac_jax import plot  # noqa: E402
+from wcac_jax import cli, plot  # noqa: E402
 
 # The Walker2d scripts run one sweep per direction or network size, each compiling its
 # own init, training and evaluation programs; a shared persistent compilation cache lets
@@ -243,7 +245,6 @@ def test_committed_walker2d_results_are_what_their_returns_give(tmp_path, name):
     what the README quotes is what the code computes, with every policy in the default
     reference box and every control per step within its physical maximum of 6 (exact
     where every episode fell, else both ends of its range)."""
-    import walker2d_front
     from pymoo.indicators.hv import HV
 
     committed = os.path.join(ROOT, "experiments", "results", name)
@@ -297,11 +298,25 @@ def test_named_configs_keep_the_paper_setting_apart():
     assert walker2d_common.steps_per_pref(0.2, None) == 200_000
     assert walker2d_common.steps_per_pref(1.0, 123) == 123
     assert walker2d_common.train_config("paper", width=None, depth=1).depth == 1
-    fixed = walker2d_common.with_fixed_utopia(walker2d_common.CONFIGS["practical"], "400,100")
-    assert (fixed.utopia, fixed.j_ub) == ("fixed", (400.0, 100.0))
-    assert walker2d_common.with_fixed_utopia(paper, "3,4") == paper.replace(j_ub=(3.0, 4.0))
+    # the sweep CLI's config flags change a named config (fields recorded in the summary)
+    parser = argparse.ArgumentParser()
+    cli.add_config_flags(parser, skip=("envs_per_pref", "scalarization"))
+    args = parser.parse_args(["--j-ub", "400,100", "--learning-rate", "1e-4"])
+    fixed = walker2d_common.config_with_flags("practical", args, num_envs=8)
     practical = walker2d_common.CONFIGS["practical"]
-    assert walker2d_common.with_utopia_margin(practical, 0.02).utopia_margin == 0.02
+    assert fixed == practical.replace(
+        utopia="fixed", j_ub=(400.0, 100.0), learning_rate=1e-4, num_envs=8
+    )
+    assert walker2d_front.config_changes(practical, fixed) == {
+        "num_envs": 8,
+        "learning_rate": 1e-4,
+        "j_ub": [400.0, 100.0],
+        "utopia": "fixed",
+    }
+    args = parser.parse_args(["--j-ub", "3,4", "--depth", "1"])
+    assert walker2d_common.config_with_flags("paper", args) == paper.replace(
+        j_ub=(3.0, 4.0), depth=1
+    )
 
 
 @pytest.mark.parametrize(
@@ -314,7 +329,12 @@ def test_named_configs_keep_the_paper_setting_apart():
         ("walker2d_front.py", ["--resume"], "--resume: nothing to resume"),
         ("walker2d_front.py", ["--j-ub", "400,x"], "--j-ub '400,x'"),
         ("walker2d_front.py", ["--config", "practical", "--j-ub", "1e39,1"], "finite"),
-        ("walker2d_front.py", ["--utopia-margin", "0.02"], "practical preset only"),
+        ("walker2d_front.py", ["--utopia-margin", "0.02"], "does not apply to --config paper"),
+        (
+            "walker2d_front.py",
+            ["--config", "practical", "--j-ub", "1,2", "--utopia-margin", "1"],
+            "ignores it",
+        ),
         ("walker2d_front.py", ["--config", "practical", "--utopia-margin", "-1"], "got -1.0"),
     ],
 )

@@ -112,6 +112,42 @@ def test_config_validates_and_round_trips():
     assert trainers.from_dict(d) == config
 
 
+def test_annealed_learning_rate_by_hand():
+    config = ppo.PPOConfig(
+        num_envs=4, rollout_steps=4, num_iterations=2, num_epochs=1, num_minibatches=2
+    )
+    assert ppo.learning_rate(config.replace(learning_rate=1e-3)) == 1e-3  # constant
+    schedule = ppo.learning_rate(config.replace(learning_rate=1e-3, anneal_lr=True))
+    # 2 iterations x 1 epoch x 2 minibatches = 4 updates: 1e-3 falling by 1e-3 / 4
+    for count, expected in [(0, 1e-3), (1, 7.5e-4), (2, 5e-4), (3, 2.5e-4), (4, 0.0), (9, 0.0)]:
+        assert float(schedule(count)) == pytest.approx(expected, rel=1e-6, abs=1e-12)  # f32
+
+
+def test_annealed_run_stops_moving_after_its_last_update():
+    """With `anneal_lr` and `num_iterations = 1` the step size reaches 0 after the run's 2
+    updates, so a second iteration leaves the policy where the first put it."""
+    env = envs.make("concave_bandit")
+    config = ppo.PPOConfig(
+        num_envs=4,
+        rollout_steps=4,
+        num_iterations=1,
+        num_epochs=1,
+        num_minibatches=2,
+        anneal_lr=True,
+        utopia="fixed",
+    )
+    trainer = ppo.make_trainer(config, env)
+    pref = jnp.array([[0.5, 0.5]])
+    state = jax.vmap(trainer.init, in_axes=(None, 0))(jax.random.key(0), pref)
+    step = jax.jit(jax.vmap(lambda s, p: trainer.run(s, p, 1)[0], axis_name=utopia.PREF_AXIS))
+    once = step(state, pref)
+    twice = step(once, pref)
+    moved = jax.tree.map(lambda a, b: float(jnp.max(jnp.abs(a - b))), state.actor, once.actor)
+    assert max(jax.tree.leaves(moved)) > 0
+    jax.tree.map(np.testing.assert_array_equal, once.actor, twice.actor)
+    jax.tree.map(np.testing.assert_array_equal, once.critic, twice.critic)
+
+
 def test_small_policy_head_and_zero_initial_advantage_weights():
     env = envs.make("walker2d")
     trainer = ppo.make_trainer(ppo.PPOConfig(num_envs=2, rollout_steps=4, num_minibatches=2), env)

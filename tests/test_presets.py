@@ -62,6 +62,9 @@ def test_explicit_flags_override_the_preset():
     config = _config("--preset", "practical", "--utopia", "fixed", "--j-ub", "1,2")
     assert config.train == PPOConfig(utopia="fixed", j_ub=(1.0, 2.0))
     assert _config("--utopia-margin", "0.02").train == PPOConfig(utopia_margin=0.02)
+    # on the practical update a fixed point means a fixed utopia: --j-ub alone says so
+    assert _config("--j-ub", "3,4").train == PPOConfig(utopia="fixed", j_ub=(3.0, 4.0))
+    assert _config("--preset", "paper", "--j-ub", "3,4").train == TrainConfig(j_ub=(3.0, 4.0))
     assert _config("--steps-per-pref", "5").steps_per_pref == 5
 
 
@@ -73,6 +76,10 @@ def test_explicit_flags_override_the_preset():
         (["--utopia", "guess"], "utopia must be one of fixed, estimated; got 'guess'"),
         (["--num-minibatches", "7"], "num_minibatches 7 must divide"),
         (["--utopia-margin", "-0.1"], "utopia_margin must be >= 0 and finite, got -0.1"),
+        # flags the configuration would silently ignore
+        (["--j-ub", "3,4", "--utopia", "estimated"], "--utopia estimated ignores it"),
+        (["--utopia", "fixed", "--utopia-margin", "0.2"], "a fixed one (--j-ub / --utopia"),
+        (["--j-ub", "3,4", "--utopia-margin", "0.2"], "--utopia-margin applies to the est"),
     ],
 )
 def test_flags_that_do_not_fit_exit_2(args, message, tmp_path, capsys):

@@ -40,12 +40,18 @@ def _parse_floats(text: str, flag: str) -> tuple[float, ...]:
 
 
 # (flag dest, config field, meaning): flags that set a field of the training config; each
-# defaults to None, i.e. the preset's (or the environment's default's) value
-_CONFIG_FLAGS = (
+# defaults to None, i.e. the preset's (or the environment's default's) value. Scripts that
+# build a sweep of their own take them too (`add_config_flags`, `apply_config_flags`).
+CONFIG_FLAGS = (
     ("envs_per_pref", "num_envs", "parallel environments N per preference"),
     ("scalarization", "scalarization", "actor direction: smooth_wc, wc, linear (or mgda, paper)"),
     ("mu", "mu", "smoothing temperature mu"),
-    ("j_ub", "j_ub", "fixed utopia point, e.g. '2000,1000' (default: the environment's)"),
+    (
+        "j_ub",
+        "j_ub",
+        "fixed utopia point, e.g. '2000,1000' (default: the environment's; with the "
+        "practical update it also sets --utopia fixed)",
+    ),
     ("gamma", "gamma", "discount"),
     ("width", "width", "network width w"),
     ("depth", "depth", "network depth D"),
@@ -58,6 +64,7 @@ _CONFIG_FLAGS = (
     ("utopia", "utopia", "practical: 'estimated' (by the sweep) or 'fixed' (--j-ub)"),
     ("utopia_margin", "utopia_margin", "practical: the estimated utopia's margin over the best"),
     ("learning_rate", "learning_rate", "practical: Adam's step size"),
+    ("anneal_lr", "anneal_lr", "practical: decay the step size linearly to 0 over the run"),
     ("num_epochs", "num_epochs", "practical: epochs per rollout"),
     ("num_minibatches", "num_minibatches", "practical: minibatches per epoch"),
 )
@@ -72,10 +79,75 @@ _FLAG_TYPES = {
     "actor_lr": float,
     "critic_lr": float,
     "learning_rate": float,
+    "anneal_lr": bool,
     "utopia_margin": float,
     "num_epochs": int,
     "num_minibatches": int,
 }
+
+
+def _flag(dest: str) -> str:
+    return "--" + dest.replace("_", "-")
+
+
+def add_config_flags(parser: argparse.ArgumentParser, skip: tuple[str, ...] = ()) -> None:
+    """Adds one flag per `CONFIG_FLAGS` entry but those in `skip` (default None: the
+    configuration's own value)."""
+    for dest, _, meaning in CONFIG_FLAGS:
+        if dest in skip:
+            continue
+        kind = _FLAG_TYPES.get(dest, str)
+        parser.add_argument(
+            _flag(dest),
+            dest=dest,
+            default=None,
+            help=f"{meaning} (default: the preset's)",
+            # a switch `--x` / `--no-x` for a yes/no field
+            **({"action": argparse.BooleanOptionalAction} if kind is bool else {"type": kind}),
+        )
+
+
+def apply_config_flags(args, train: trainers.AnyConfig, name: str) -> trainers.AnyConfig:
+    """`train` with every `CONFIG_FLAGS` flag given in `args` applied over it.
+
+    On the practical update `--j-ub` means a fixed utopia point, so it also sets `utopia`
+    to "fixed" unless `--utopia` says otherwise; a flag the configuration would ignore
+    (`--j-ub` with `--utopia estimated`, `--utopia-margin` with a fixed point) is an error.
+
+    Args:
+      args: parsed arguments carrying the flags' dests (absent ones count as not given).
+      train: the configuration the flags change.
+      name: what `train` is, for messages (e.g. "the practical preset").
+
+    Raises:
+      SweepError: naming a flag that does not apply to `train`, or a bad value.
+    """
+    fields = {f.name for f in dataclasses.fields(train)}
+    changes = {}
+    for dest, field_name, _ in CONFIG_FLAGS:
+        value = getattr(args, dest, None)
+        if value is None:
+            continue
+        if field_name not in fields:
+            raise SweepError(
+                f"{_flag(dest)} does not apply to {name}, a {trainers.kind(train)} configuration"
+            )
+        changes[field_name] = _parse_floats(value, _flag(dest)) if dest == "j_ub" else value
+    if "utopia" in fields:
+        utopia = changes.get("utopia", "fixed" if "j_ub" in changes else train.utopia)
+        if "j_ub" in changes and utopia != "fixed":
+            raise SweepError("--j-ub sets a fixed utopia point; --utopia estimated ignores it")
+        if "utopia_margin" in changes and utopia == "fixed":
+            raise SweepError(
+                "--utopia-margin applies to the estimated utopia point; a fixed one "
+                "(--j-ub / --utopia fixed) ignores it"
+            )
+        if utopia != train.utopia:
+            changes["utopia"] = utopia
+    try:
+        return train.replace(**changes)
+    except ValueError as err:
+        raise SweepError(str(err)) from None
 
 
 def _defaults_table() -> str:
@@ -145,14 +217,7 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         help="environment steps per preference (default: the environment's, see below)",
     )
-    for dest, _, meaning in _CONFIG_FLAGS:
-        p.add_argument(
-            "--" + dest.replace("_", "-"),
-            dest=dest,
-            type=_FLAG_TYPES.get(dest, str),
-            default=None,
-            help=f"{meaning} (default: the preset's)",
-        )
+    add_config_flags(p)
     p.add_argument(
         "--hv-ref",
         default=None,
@@ -217,22 +282,7 @@ def config_from_args(args) -> SweepConfig:
         name = f"the {args.preset} preset"
     else:
         train, name = defaults.config, f"{args.env}'s default ({defaults.preset})"
-    fields = {f.name for f in dataclasses.fields(train)}
-    changes = {}
-    for dest, field_name, _ in _CONFIG_FLAGS:
-        value = getattr(args, dest)
-        if value is None:
-            continue
-        flag = "--" + dest.replace("_", "-")
-        if field_name not in fields:
-            raise SweepError(
-                f"{flag} does not apply to {name}, a {trainers.kind(train)} configuration"
-            )
-        changes[field_name] = _parse_floats(value, flag) if dest == "j_ub" else value
-    try:
-        train = train.replace(**changes)
-    except ValueError as err:
-        raise SweepError(str(err)) from None
+    train = apply_config_flags(args, train, name)
 
     if args.prefs is not None:
         prefs = _parse_prefs(args.prefs)

@@ -68,7 +68,9 @@ class PPOConfig:
       gamma: discount.
       gae_lambda: GAE's `lambda`.
       clip_eps: the ratio's clipping range `epsilon`.
-      learning_rate: Adam's step size.
+      learning_rate: Adam's step size (its start, with `anneal_lr`).
+      anneal_lr: decay the step size linearly to 0 over the run's `num_iterations *
+        num_epochs * num_minibatches` updates (as CleanRL's and purejaxrl's PPO do).
       adam_eps: Adam's `epsilon`.
       max_grad_norm: global gradient-norm clip.
       vf_coef: weight of the critic's regression loss.
@@ -96,6 +98,7 @@ class PPOConfig:
     gae_lambda: float = 0.95
     clip_eps: float = 0.2
     learning_rate: float = 3e-4
+    anneal_lr: bool = False
     adam_eps: float = 1e-5
     max_grad_norm: float = 0.5
     vf_coef: float = 0.5
@@ -416,6 +419,16 @@ def _typed_key(key: chex.PRNGKey) -> chex.PRNGKey:
 # ----------------------------------------------------------------------------- the program
 
 
+def learning_rate(config: PPOConfig) -> float | optax.Schedule:
+    """Adam's step size: `config.learning_rate`, or with `anneal_lr` a schedule of the
+    update count `k` falling linearly from it to 0 at the run's last update (`k = T *
+    epochs * minibatches`; later counts stay at 0)."""
+    if not config.anneal_lr:
+        return config.learning_rate
+    n_updates = config.num_iterations * config.num_epochs * config.num_minibatches
+    return optax.linear_schedule(config.learning_rate, 0.0, n_updates)
+
+
 def make_trainer(config: PPOConfig, env) -> Trainer:
     """Builds the pure `init`/`run`/`step` of the practical update for `env`.
 
@@ -443,7 +456,7 @@ def make_trainer(config: PPOConfig, env) -> Trainer:
     value_net = tanh_mlp(obs_size, m, config.width, config.depth, 1.0)
     optimizer = optax.chain(
         optax.clip_by_global_norm(config.max_grad_norm),
-        optax.adam(config.learning_rate, eps=config.adam_eps),
+        optax.adam(learning_rate(config), eps=config.adam_eps),
     )
     scals = [scalarize.get(name) for name in TRACED_DIRECTIONS]
     static_index = TRACED_DIRECTIONS.index(config.scalarization)
