@@ -18,7 +18,7 @@ import sys
 import jax
 import numpy as np
 
-from wcac_jax import envs, pareto, presets
+from wcac_jax import cli, envs, pareto, presets
 from wcac_jax.config import TrainConfig
 from wcac_jax.sweep import (
     SweepConfig,
@@ -96,8 +96,6 @@ def config_with_flags(name: str, args, **changes):
     """The named configuration `name` with `changes` and then the sweep CLI's config flags
     in `args` (`wcac_jax.cli.apply_config_flags`) applied, or a one-line exit naming the
     bad flag or value."""
-    from wcac_jax import cli
-
     try:
         return cli.apply_config_flags(args, train_config(name, **changes), f"--config {name}")
     except SweepError as err:

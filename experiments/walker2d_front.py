@@ -167,7 +167,6 @@ def main(argv=None) -> int:
         print(f"recomputed the metrics in {args.out}")
         return 0
 
-    named = common.train_config(args.config)
     base = common.config_with_flags(args.config, args, num_envs=args.envs_per_pref)
     steps = common.steps_per_pref(args.scale, args.steps_per_pref)
     common.make_out(args.out, args.resume)
@@ -176,7 +175,7 @@ def main(argv=None) -> int:
         "config_name": args.config,
         # the fields the flags changed from the named config (the full config is in each
         # direction's config.json)
-        "config_changes": config_changes(named, base),
+        "config_changes": config_changes(common.CONFIGS[args.config], base),
         "scale": steps / common.PAPER_STEPS_PER_PREF,
         "steps_per_pref": steps,
         "physics": args.physics,
