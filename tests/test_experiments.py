@@ -14,6 +14,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(ROOT, "experiments"))
 
 import pareto_exploration  # noqa: E402
+import reference_ppo  # noqa: E402
 import walker2d_ablation  # noqa: E402
 import walker2d_common  # noqa: E402
 import walker2d_front  # noqa: E402
@@ -94,6 +95,19 @@ def test_bench_env_quick_writes_every_field(tmp_path):
     result = json.loads(out.read_text())
     (row,) = result["stepping"]
     assert row["physics"] == "brax" and row["batch"] == 2 and row["env_steps_per_s"] > 0
+
+
+def test_reference_ppo_rejects_bad_input_and_names_its_missing_packages(capsys):
+    with pytest.raises(SystemExit) as exc:
+        reference_ppo.main(["--steps", "0"])
+    assert exc.value.code == 2 and "--steps" in capsys.readouterr().err
+    try:
+        import sbx  # noqa: F401
+    except ImportError:
+        assert reference_ppo.main(["--steps", "16"]) == 2
+        assert "sbx-rl" in capsys.readouterr().err
+    else:
+        pytest.skip("sbx-rl is installed here: the missing-package message is not reachable")
 
 
 def test_pareto_exploration_quick_writes_its_schema(tmp_path):

@@ -1,0 +1,113 @@
+"""The issue's yardstick: one single-objective PPO run of the `[1, 0]` end, off the shelf.
+
+`sbx-rl` 0.28 (a JAX PPO with Stable-Baselines3's interface), 16 Gymnasium `Walker2d-v5`
+in MuJoCo's C engine (`DummyVecEnv`), 500-step episodes, no control cost (this project's
+`[1, 0]` objective), `VecNormalize` (observations and rewards), 64 x 64 networks,
+rollouts of 128 steps, minibatches of 256, 10 epochs, Adam 3e-4, clip 0.2, GAE 0.95,
+`log_std_init = 0`; 1,000,000 env steps; then its deterministic policy over 8 episodes.
+Prints and writes (`--out`, JSON) the training wall time, env-steps/s, and the mean
+speed and episode length, so the front's wall time can be set against nine such runs
+measured in the same sitting on the same machine.
+
+`sbx-rl` is not a dependency of wcac_jax (it pulls in PyTorch through Stable-Baselines3);
+run this in a separate environment:
+
+    python -m venv /tmp/sbx && /tmp/sbx/bin/pip install "sbx-rl==0.28.0" "gymnasium[mujoco]"
+    /tmp/sbx/bin/python experiments/reference_ppo.py --out runs/reference_ppo.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import resource
+import sys
+import time
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--steps", type=int, default=1_000_000, help="env steps")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--eval-episodes", type=int, default=8)
+    parser.add_argument("--out", default=None, help="JSON file (default: print only)")
+    args = parser.parse_args(argv)
+    if args.steps <= 0 or args.eval_episodes <= 0:
+        parser.error(
+            f"--steps and --eval-episodes must be > 0, got {args.steps}, {args.eval_episodes}"
+        )
+    try:
+        import gymnasium as gym
+        import numpy as np
+        from sbx import PPO
+        from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+    except ImportError as e:
+        print(
+            f"error: {e}; this script needs sbx-rl and gymnasium[mujoco] (see its docstring)",
+            file=sys.stderr,
+        )
+        return 2
+
+    def make():
+        return gym.make("Walker2d-v5", max_episode_steps=500, ctrl_cost_weight=0.0)
+
+    venv = VecNormalize(DummyVecEnv([make] * 16), gamma=0.99)
+    model = PPO(
+        "MlpPolicy",
+        venv,
+        n_steps=128,
+        batch_size=256,
+        n_epochs=10,
+        learning_rate=3e-4,
+        clip_range=0.2,
+        gae_lambda=0.95,
+        gamma=0.99,
+        policy_kwargs={"net_arch": [64, 64], "log_std_init": 0.0},
+        seed=args.seed,
+        verbose=0,
+    )
+    cpu0 = resource.getrusage(resource.RUSAGE_SELF)
+    t0 = time.perf_counter()
+    model.learn(total_timesteps=args.steps)
+    train_s = time.perf_counter() - t0
+    cpu1 = resource.getrusage(resource.RUSAGE_SELF)
+    cpu_s = (cpu1.ru_utime - cpu0.ru_utime) + (cpu1.ru_stime - cpu0.ru_stime)
+
+    env = make()
+    speeds, lengths = [], []
+    for episode in range(args.eval_episodes):
+        obs, _ = env.reset(seed=10_000 + episode)
+        x0, n, done = env.unwrapped.data.qpos[0], 0, False
+        while not done:
+            norm = venv.normalize_obs(obs[None])
+            action, _ = model.predict(norm, deterministic=True)
+            obs, _, terminated, truncated, _ = env.step(action[0])
+            n += 1
+            done = terminated or truncated
+        speeds.append((env.unwrapped.data.qpos[0] - x0) / (n * env.unwrapped.dt))
+        lengths.append(n)
+
+    result = {
+        "machine": f"{platform.machine()}, {os.cpu_count()} CPUs",
+        "when": time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime()),
+        "env_steps": args.steps,
+        "seed": args.seed,
+        "train_s": train_s,
+        "env_steps_per_s": args.steps / train_s,
+        "cores_busy": cpu_s / train_s,
+        "eval_mean_speed_m_per_s": float(np.mean(speeds)),
+        "eval_mean_length": float(np.mean(lengths)),
+        "eval_episodes": args.eval_episodes,
+    }
+    print(json.dumps(result, indent=1))
+    if args.out:
+        os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
+        with open(args.out, "w") as f:
+            json.dump(result, f, indent=1)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
