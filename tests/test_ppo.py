@@ -99,6 +99,7 @@ def test_config_validates_and_round_trips():
         "learning_rate": float("inf"),
         "ent_coef": float("nan"),
         "utopia_margin": -1.0,
+        "augment": -0.01,
         "log_std_init": float("inf"),
     }
     for name, value in bad.items():
@@ -222,3 +223,57 @@ def test_orthogonal_init_without_lapack():
         np.testing.assert_allclose(gram, 4.0 * np.eye(min(shape)), atol=1e-5)
     a, b = (orthogonal()(jax.random.key(k), (8, 8)) for k in (0, 1))
     assert not np.allclose(a, b)
+
+
+# -- the augmented scalarization: a bandit whose [1, 0] end is a weakly Pareto flat
+
+
+class _KinkedBandit(cb.ConcaveBandit):
+    """`r = (min(0, 1/2 - 3t/2), t - 1/3)` with `t = (clip(a) + 1) / 2`: for `p = [1, 0]`
+    every `t <= 1/3` maximises `r_1` (weakly Pareto optimal), and `t = 1/3` is the only
+    Pareto optimal one. (Rewards near 0 there, so that the return normaliser's clip,
+    `|r / sigma| <= 10`, stays inactive as the policy's noise shrinks.)"""
+
+    objective_names = ("capped", "t")
+
+    def step(self, state, action):
+        t = 0.5 * (jnp.clip(action[0], -1.0, 1.0) + 1.0)
+        return state.replace(
+            reward=jnp.stack([jnp.minimum(0.0, 0.5 - 1.5 * t), t - 1.0 / 3.0]),
+            done=jnp.ones((), jnp.float32),
+            metrics={"theta": t},
+        )
+
+
+def test_augmented_ppo_finds_the_pareto_optimal_point_of_a_weakly_pareto_end():
+    """With `augment = rho`, `p = [1, 0]` ascends `(1 + rho) r_1 + rho r_2` (`lambda_1 = 1`).
+    For a Gaussian `t ~ N(m, s^2)` its expectation is stationary where
+    `1.5 (1 + rho) P(t > 1/3) = rho`, i.e. `m = 1/3 + s Phi^-1(rho / (1.5 (1 + rho)))`:
+    the kink (the Pareto optimal point) less the noise's safety margin. Without the
+    augmentation every `m` well below 1/3 is as good, and nothing holds `m` there."""
+    rho = 0.2
+    config = CONFIG.replace(augment=rho)
+    trainer = ppo.make_trainer(config, _KinkedBandit())
+    seeds = 4  # four independent runs of p = [1, 0], one program
+    prefs = jnp.tile(jnp.array([[1.0, 0.0]]), (seeds, 1))
+
+    def train(key, pref):
+        state, metrics = trainer.run(trainer.init(key, pref), pref, 2 * ITERS)
+        t = 0.5 * (trainer.mean_action(state, jnp.ones((1,)))[0] + 1.0)
+        obs = trainer.preprocess(state.obs_stats, jnp.ones((1, 1)))
+        s = 0.5 * jnp.exp(jnp.ravel(trainer.policy.apply(state.actor, obs)[1])[0])  # std of t
+        return t, s, metrics
+
+    m, s, metrics = jax.jit(jax.vmap(train, axis_name=utopia.PREF_AXIS))(
+        jax.random.split(jax.random.key(1), seeds), prefs
+    )
+    expected = 1.0 / 3.0 + s * jax.scipy.stats.norm.ppf(rho / (1.5 * (1.0 + rho)))
+    np.testing.assert_allclose(m, expected, atol=0.04)
+    assert abs(float(jnp.mean(m - expected))) < 0.02
+    # the augmentation's value is in the scalarized metric: g + rho * sum_i (z_i - J_i)
+    z, j_hat = metrics["train/utopia"][:, -1], metrics["train/j_hat"][:, -1]
+    np.testing.assert_allclose(
+        metrics["train/scalarized"][:, -1],
+        metrics["train/g_mu"][:, -1] + rho * jnp.sum(z - j_hat, axis=-1),
+        rtol=1e-5,
+    )

@@ -62,6 +62,7 @@ def test_explicit_flags_override_the_preset():
     config = _config("--preset", "practical", "--utopia", "fixed", "--j-ub", "1,2")
     assert config.train == PPOConfig(utopia="fixed", j_ub=(1.0, 2.0))
     assert _config("--utopia-margin", "0.02").train == PPOConfig(utopia_margin=0.02)
+    assert _config("--augment", "0.01").train == PPOConfig(augment=0.01)
     # on the practical update a fixed point means a fixed utopia: --j-ub alone says so
     assert _config("--j-ub", "3,4").train == PPOConfig(utopia="fixed", j_ub=(3.0, 4.0))
     assert _config("--preset", "paper", "--j-ub", "3,4").train == TrainConfig(j_ub=(3.0, 4.0))
@@ -76,6 +77,8 @@ def test_explicit_flags_override_the_preset():
         (["--utopia", "guess"], "utopia must be one of fixed, estimated; got 'guess'"),
         (["--num-minibatches", "7"], "num_minibatches 7 must divide"),
         (["--utopia-margin", "-0.1"], "utopia_margin must be >= 0 and finite, got -0.1"),
+        (["--augment", "-0.1"], "augment must be >= 0 and finite, got -0.1"),
+        (["--preset", "paper", "--augment", "0.01"], "--augment does not apply to the paper"),
         # flags the configuration would silently ignore
         (["--j-ub", "3,4", "--utopia", "estimated"], "--utopia estimated ignores it"),
         (["--utopia", "fixed", "--utopia-margin", "0.2"], "a fixed one (--j-ub / --utopia"),

@@ -93,6 +93,33 @@ def test_weights_are_minus_gradient_over_pref(name):
     np.testing.assert_allclose(grad, -scal.weights(values, pref, j_ub, 0.2) * pref, rtol=1e-5)
 
 
+def test_augmented_coefficients_by_hand_and_as_a_gradient():
+    # w * p + rho: [0.3 * 0.5, 0.7 * 0.5] + 0.1, and a zero preference keeps rho
+    np.testing.assert_allclose(
+        scalarize.augmented_coefficients(jnp.array([0.5, 0.5]), PREF, 0.1), [0.25, 0.45]
+    )
+    np.testing.assert_allclose(
+        scalarize.augmented_coefficients(jnp.array([1.0, 0.0]), jnp.array([1.0, 0.0]), 0.01),
+        [1.01, 0.01],
+    )
+    # rho * sum(J_ub - J) = 0.1 * (2 + 1)
+    assert scalarize.augmentation(VALUES, J_UB, 0.1) == pytest.approx(0.3)
+    # grad_J of the augmented smooth_wc is -(lambda * p + rho), also where p_i = 0
+    pref, mu, rho = jnp.array([1.0, 0.0]), 0.2, 0.05
+
+    def augmented(values):
+        return scalarize.smooth_wc(values, pref, J_UB, mu) + scalarize.augmentation(
+            values, J_UB, rho
+        )
+
+    lam = scalarize.smooth_wc_weights(VALUES, pref, J_UB, mu)
+    np.testing.assert_allclose(
+        jax.grad(augmented)(VALUES),
+        -scalarize.augmented_coefficients(lam, pref, rho),
+        rtol=1e-6,
+    )
+
+
 def test_jit_vmap_and_simplex_corners():
     prefs = jnp.array([[1.0, 0.0], [0.0, 1.0], [0.5, 0.5]])
     out = jax.jit(jax.vmap(scalarize.smooth_wc, (None, 0, None, None)))(VALUES, prefs, J_UB, 0.05)

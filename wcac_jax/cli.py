@@ -63,6 +63,11 @@ CONFIG_FLAGS = (
     ("actor_optimizer", "actor_optimizer", "paper: normalized, normalized_harmonic, adam, sgd"),
     ("utopia", "utopia", "practical: 'estimated' (by the sweep) or 'fixed' (--j-ub)"),
     ("utopia_margin", "utopia_margin", "practical: the estimated utopia's margin over the best"),
+    (
+        "augment",
+        "augment",
+        "practical: rho of the augmented scalarization S + rho * sum_i (z_i - J_i)",
+    ),
     ("learning_rate", "learning_rate", "practical: Adam's step size"),
     ("anneal_lr", "anneal_lr", "practical: decay the step size linearly to 0 over the run"),
     ("num_epochs", "num_epochs", "practical: epochs per rollout"),
@@ -81,6 +86,7 @@ _FLAG_TYPES = {
     "learning_rate": float,
     "anneal_lr": bool,
     "utopia_margin": float,
+    "augment": float,
     "num_epochs": int,
     "num_minibatches": int,
 }

@@ -15,7 +15,7 @@ policy (`M = N * L` transitions), and then:
    the scalarization's weights `w` (`lambda` for `smooth_wc`) give the scalarized
    advantage `sum_i w_i p_i sigma_i A_i` — the advantage of the direction
    `-sum_i w_i p_i gradJ_i` of `actor.direction`, with each `A_i` back in its
-   objective's units;
+   objective's units (with `augment = rho > 0`, `w_i p_i + rho` in place of `w_i p_i`);
 4. `num_epochs` passes over `num_minibatches` shuffled minibatches: the clipped-ratio
    surrogate on the (per-minibatch normalised) scalarized advantage
    (`clipped_surrogate`), plus the critic's regression on its GAE targets, one Adam step
@@ -87,6 +87,9 @@ class PPOConfig:
       utopia: `"fixed"` (`j_ub`) or `"estimated"` (by the sweep, `wcac_jax.utopia`).
       utopia_margin, utopia_min_spread: see `utopia.estimate`.
       scalarization: `"smooth_wc"` (the method), `"wc"` or `"linear"`.
+      augment: `rho` of the augmented scalarization `S + rho * sum_i (z_i - J_i)`
+        (`scalarize.augmented_coefficients`): a weight `rho` on every objective, in its
+        own units, on top of `w_i p_i`. `0` (the default) is the method as SPEC §4 has it.
     """
 
     num_envs: int = 16
@@ -116,6 +119,7 @@ class PPOConfig:
     utopia_margin: float = 0.1
     utopia_min_spread: float = 1.0
     scalarization: str = "smooth_wc"
+    augment: float = 0.0
 
     def __post_init__(self):
         for name in (
@@ -153,7 +157,7 @@ class PPOConfig:
                 raise ValueError(f"{name} must be > 0, got {value!r}")
             if not finite_f32(value):
                 raise ValueError(f"{name} must be finite in float32, got {value!r}")
-        for name in ("vf_coef", "ent_coef", "utopia_margin"):
+        for name in ("vf_coef", "ent_coef", "utopia_margin", "augment"):
             value = getattr(self, name)
             if not (value >= 0 and finite_f32(value)):
                 raise ValueError(f"{name} must be >= 0 and finite, got {value!r}")
@@ -567,7 +571,9 @@ def make_trainer(config: PPOConfig, env) -> Trainer:
             utopia_state, z = state.utopia, j_ub
         index = static_index if direction is None else direction
         weights, scalarized = scalarization(index, j_hat, pref, z)
-        coeff = weights * pref * sigma  # each A_i back in its objective's units
+        scalarized = scalarized + scalarize.augmentation(j_hat, z, config.augment)
+        # each A_i back in its objective's units
+        coeff = scalarize.augmented_coefficients(weights, pref, config.augment) * sigma
         scalar_adv = adv @ coeff  # [L, N]
 
         dist = policy.apply(state.actor, obs_in)

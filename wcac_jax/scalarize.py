@@ -128,6 +128,40 @@ def linear_weights(values: chex.Array, pref: chex.Array) -> chex.Array:
     return jnp.ones_like(values)
 
 
+def augmented_coefficients(weights: chex.Array, pref: chex.Array, rho: chex.Numeric) -> chex.Array:
+    """Descent coefficients `c = w * p + rho` of a scalarization augmented by
+    `rho * sum_i (J_ub_i - J_i)`.
+
+    The augmented weighted Chebyshev `S(J | p) + rho * sum_i (J_ub_i - J_i)` (Steuer and
+    Choo, 1983) keeps a small weight `rho` on every objective, also where `p_i = 0`, so
+    its minimisers are Pareto optimal rather than only weakly so (e.g. the `p = [1, 0]`
+    end of a front no longer ignores the second objective). Since
+    `grad_J S = -w * p`, the augmented scalarization has `grad_J = -(w * p + rho)`, and an
+    actor descends it along `-sum_i c_i grad J_i`. `rho = 0` is `S` itself.
+
+    Args:
+      weights: `[m]` the scalarization's objective weights `w(J | p)`.
+      pref: `[m]` preference vector.
+      rho: the augmentation's weight, `rho >= 0`.
+
+    Returns:
+      `[m]` coefficients.
+    """
+    chex.assert_equal_shape([weights, pref])
+    return weights * pref + rho
+
+
+def augmentation(values: chex.Array, j_ub: chex.Array, rho: chex.Numeric) -> chex.Array:
+    """The augmentation term `rho * sum_i (J_ub_i - J_i)` (a scalar; see
+    `augmented_coefficients`).
+
+    Args:
+      values: `[m]` objective values `J`; j_ub: `[m]` utopia point; rho: its weight.
+    """
+    chex.assert_equal_shape([values, j_ub])
+    return rho * jnp.sum(j_ub - values)
+
+
 class _ValueFn(Protocol):
     def __call__(self, values, pref, j_ub, mu) -> chex.Array: ...
 
