@@ -1,5 +1,6 @@
 """The practical update (`wcac_jax.ppo`): its formulas against hand-computed values, its
-config, and learning on the concave bandit (known answer) with the traced directions."""
+config, learning on the concave bandit (known answer) with the traced directions, and the
+augmented scalarization on a bandit with a weakly Pareto end (known answer)."""
 
 import math
 
