@@ -16,10 +16,11 @@ policy (`M = N * L` transitions), and then:
    advantage `sum_i w_i p_i sigma_i A_i` — the advantage of the direction
    `-sum_i w_i p_i gradJ_i` of `actor.direction`, with each `A_i` back in its
    objective's units (with `augment = rho > 0`, `w_i p_i + rho` in place of `w_i p_i`);
-4. `num_epochs` passes over `num_minibatches` shuffled minibatches: the clipped-ratio
-   surrogate on the (per-minibatch normalised) scalarized advantage
-   (`clipped_surrogate`), plus the critic's regression on its GAE targets, one Adam step
-   with global gradient-norm clipping per minibatch.
+4. `num_epochs` passes over `num_minibatches` shuffled minibatches
+   (`minibatch_epochs`), one Adam step with global gradient-norm clipping per
+   minibatch on `ppo_loss`: the clipped-ratio surrogate on the (per-minibatch
+   normalised) scalarized advantage (`clipped_surrogate`), plus the critic's regression
+   on its GAE targets.
 
 `make_trainer` returns the same `train.Trainer` as the paper's update, so sweeps,
 evaluation, checkpoints and chunking work unchanged. Each iteration costs `N * L`
@@ -343,6 +344,91 @@ def normalize_advantages(adv: chex.Array) -> chex.Array:
     return (adv - jnp.mean(adv)) / (jnp.std(adv) + 1e-8)
 
 
+def ppo_loss(
+    config: PPOConfig,
+    policy: networks.Policy,
+    value_net: networks.Network,
+    params: dict,
+    batch: dict,
+) -> tuple[chex.Array, dict]:
+    """One minibatch's loss (minimised) and diagnostics: `-surrogate + vf_coef * value_loss
+    - ent_coef * entropy`, the surrogate on the minibatch-normalised advantage.
+
+    Args:
+      config: `clip_eps`, `vf_coef`, `ent_coef`.
+      policy, value_net: the networks.
+      params: `{"actor", "critic"}` trainable parameters (what is differentiated).
+      batch: `obs` `[B, obs]` (already normalised), `action` `[B, ...]`, `log_prob` `[B]`
+        (the behaviour policy's), `advantage` `[B]` (scalarized), `target` `[B, m]`, and
+        `actor_fixed` / `critic_fixed`, the `NetParams` whose `trainable` part `params`
+        replaces.
+
+    Returns:
+      `(loss, {"value_loss", "approx_kl", "clip_fraction"})`, all scalars.
+    """
+    dist = policy.apply(batch["actor_fixed"].replace(trainable=params["actor"]), batch["obs"])
+    log_ratio = policy.log_prob(dist, batch["action"]) - batch["log_prob"]
+    surrogate = clipped_surrogate(
+        log_ratio, normalize_advantages(batch["advantage"]), config.clip_eps
+    )
+    v = value_net.apply(batch["critic_fixed"].replace(trainable=params["critic"]), batch["obs"])
+    value_loss = 0.5 * jnp.mean(jnp.square(v - batch["target"]))
+    entropy = jnp.mean(policy.entropy(dist))
+    loss = -surrogate + config.vf_coef * value_loss - config.ent_coef * entropy
+    ratio = jnp.exp(log_ratio)
+    return loss, {
+        "value_loss": value_loss,
+        "approx_kl": jnp.mean((ratio - 1.0) - log_ratio),
+        "clip_fraction": jnp.mean((jnp.abs(ratio - 1.0) > config.clip_eps).astype(jnp.float32)),
+    }
+
+
+def minibatch_epochs(
+    loss_fn,
+    optimizer: optax.GradientTransformation,
+    params,
+    opt_state: optax.OptState,
+    data: dict,
+    key: chex.PRNGKey,
+    num_epochs: int,
+    num_minibatches: int,
+    fixed: dict | None = None,
+):
+    """`num_epochs` passes over `data`, each a fresh permutation cut into
+    `num_minibatches` minibatches, one `optimizer` step on `loss_fn` per minibatch.
+
+    Args:
+      loss_fn: `(params, minibatch) -> (loss, info)`.
+      optimizer: an optax transformation.
+      params, opt_state: where to start.
+      data: leaves `[M, ...]`, `M` divisible by `num_minibatches`.
+      key: the permutations' key (split into one per epoch).
+      num_epochs, num_minibatches: static sizes.
+      fixed: entries added unsliced to every minibatch.
+
+    Returns:
+      `((params, opt_state), info)`, `info`'s leaves `[num_epochs, num_minibatches, ...]`.
+    """
+    fixed = fixed or {}
+    n = jax.tree.leaves(data)[0].shape[0]
+    mb_size = n // num_minibatches
+
+    def minibatch_step(carry, mb):
+        params, opt_state = carry
+        grads, info = jax.grad(loss_fn, has_aux=True)(params, {**mb, **fixed})
+        updates, opt_state = optimizer.update(grads, opt_state, params)
+        return (optax.apply_updates(params, updates), opt_state), info
+
+    def epoch(carry, key):
+        perm = jax.random.permutation(key, n)
+        mbs = jax.tree.map(
+            lambda x: x[perm].reshape((num_minibatches, mb_size, *x.shape[1:])), data
+        )
+        return jax.lax.scan(minibatch_step, carry, mbs)
+
+    return jax.lax.scan(epoch, (params, opt_state), jax.random.split(key, num_epochs))
+
+
 # ----------------------------------------------------------------------------- networks
 
 
@@ -450,7 +536,6 @@ def make_trainer(config: PPOConfig, env) -> Trainer:
     j_ub = jnp.asarray(resolve_j_ub(config, env), jnp.float32)
     n_envs, gamma = config.num_envs, config.gamma
     n_samples = config.sample_count
-    mb_size = n_samples // config.num_minibatches
 
     wrapped = EpisodeWrapper(env, env.episode_length)
     v_reset = jax.vmap(wrapped.reset)
@@ -464,6 +549,7 @@ def make_trainer(config: PPOConfig, env) -> Trainer:
     )
     scals = [scalarize.get(name) for name in TRACED_DIRECTIONS]
     static_index = TRACED_DIRECTIONS.index(config.scalarization)
+    loss_fn = functools.partial(ppo_loss, config, policy, value_net)
 
     def preprocess(obs_stats, obs):
         if not config.normalize_obs:
@@ -503,23 +589,6 @@ def make_trainer(config: PPOConfig, env) -> Trainer:
             for s in scals
         ]
         return jax.lax.switch(direction, branches, j_hat, pref, z)
-
-    def loss_fn(params, batch):
-        dist = policy.apply(batch["actor_fixed"].replace(trainable=params["actor"]), batch["obs"])
-        log_prob = policy.log_prob(dist, batch["action"])
-        log_ratio = log_prob - batch["log_prob"]
-        adv = normalize_advantages(batch["advantage"])
-        surrogate = clipped_surrogate(log_ratio, adv, config.clip_eps)
-        v = values(batch["critic_fixed"].replace(trainable=params["critic"]), batch["obs"])
-        value_loss = 0.5 * jnp.mean(jnp.square(v - batch["target"]))
-        entropy = jnp.mean(policy.entropy(dist))
-        loss = -surrogate + config.vf_coef * value_loss - config.ent_coef * entropy
-        ratio = jnp.exp(log_ratio)
-        return loss, {
-            "value_loss": value_loss,
-            "approx_kl": jnp.mean((ratio - 1.0) - log_ratio),
-            "clip_fraction": jnp.mean((jnp.abs(ratio - 1.0) > config.clip_eps).astype(jnp.float32)),
-        }
 
     def iteration(state: PPOState, pref: chex.Array, direction: chex.Array | None = None):
         key_rollout, key_epochs = jax.random.split(
@@ -584,26 +653,17 @@ def make_trainer(config: PPOConfig, env) -> Trainer:
             "advantage": scalar_adv.reshape(n_samples),
             "target": target.reshape((n_samples, m)),
         }
-        fixed = {"actor_fixed": state.actor, "critic_fixed": state.critic}
-
-        def minibatch_step(carry, mb):
-            params, opt_state = carry
-            grads, info = jax.grad(loss_fn, has_aux=True)(params, {**mb, **fixed})
-            updates, opt_state = optimizer.update(grads, opt_state, params)
-            return (optax.apply_updates(params, updates), opt_state), info
-
-        def epoch(carry, key):
-            perm = jax.random.permutation(key, n_samples)
-            mbs = jax.tree.map(
-                lambda x: x[perm].reshape((config.num_minibatches, mb_size, *x.shape[1:])), flat
-            )
-            return jax.lax.scan(minibatch_step, carry, mbs)
-
         params = {"actor": state.actor.trainable, "critic": state.critic.trainable}
-        (params, opt_state), info = jax.lax.scan(
-            epoch,
-            (params, state.opt_state),
-            jax.random.split(key_epochs, config.num_epochs),
+        (params, opt_state), info = minibatch_epochs(
+            loss_fn,
+            optimizer,
+            params,
+            state.opt_state,
+            flat,
+            key_epochs,
+            config.num_epochs,
+            config.num_minibatches,
+            fixed={"actor_fixed": state.actor, "critic_fixed": state.critic},
         )
 
         new_obs_stats = obs_stats
