@@ -15,7 +15,15 @@ from brax.envs.base import Env, State
 from wcac_jax import envs
 from wcac_jax.config import TrainConfig
 from wcac_jax.envs import concave_bandit as cb
-from wcac_jax.train import env_steps, make_evaluate, make_train, make_trainer
+from wcac_jax.train import (
+    env_steps,
+    finished_episode_return,
+    make_evaluate,
+    make_train,
+    make_trainer,
+    rollout,
+)
+from wcac_jax.types import EpisodeStats
 
 # None of these preferences has its optimum at the policies' start (theta ~ pi/4, the MLP
 # policy head starts near action 0): [0.35, 0.65]'s weighted-Chebyshev optimum is 1.118.
@@ -312,3 +320,23 @@ def test_evaluate_discounts_and_stops_at_the_end_of_a_multi_step_episode(
     np.testing.assert_allclose(out["eval/return"], ret, rtol=1e-6)
     np.testing.assert_allclose(out["eval/discounted_return"], disc, rtol=1e-6)
     np.testing.assert_allclose(out["eval/length"], length)
+
+
+def test_finished_episode_return_by_hand():
+    last = jnp.array([[1.0, -2.0], [9.0, 9.0], [3.0, 4.0]])
+    # environment 1 has finished no episode yet: its last_return is not counted
+    episodes = EpisodeStats(jnp.zeros((3, 2)), last, jnp.array([2, 0, 1]))
+    np.testing.assert_allclose(finished_episode_return(episodes), [2.0, 1.0])
+    none = EpisodeStats(jnp.zeros((3, 2)), last, jnp.zeros(3, jnp.int32))
+    np.testing.assert_allclose(finished_episode_return(none), [0.0, 0.0])
+
+
+def test_rollout_steps_in_order_with_one_key_per_step():
+    # a stand-in `env_step` that counts and records the key it was given
+    def env_step(actor, obs_stats, env_state, episodes, key):
+        return env_state + actor, episodes + 1, jax.random.key_data(key)
+
+    key = jax.random.key(7)
+    (state, episodes), keys = rollout(env_step, 2.0, None, 10.0, 0, key, 3)
+    assert (float(state), int(episodes)) == (16.0, 3)
+    np.testing.assert_array_equal(keys, jax.random.key_data(jax.random.split(key, 3)))

@@ -49,9 +49,11 @@ from wcac_jax.envs.wrappers import EpisodeWrapper
 from wcac_jax.train import (
     TRACED_DIRECTIONS,
     Trainer,
+    finished_episode_return,
     init_episodes,
     policy_step,
     resolve_j_ub,
+    rollout,
 )
 from wcac_jax.types import EpisodeStats
 
@@ -598,15 +600,14 @@ def make_trainer(config: PPOConfig, env) -> Trainer:
         prep = functools.partial(preprocess, obs_stats)
         finished_before = jnp.sum(state.episodes.finished)
 
-        def rollout_step(carry, key):
-            env_state, episodes = carry
-            env_state, episodes, tr = env_step(state.actor, obs_stats, env_state, episodes, key)
-            return (env_state, episodes), tr
-
-        (env_state, episodes), batch = jax.lax.scan(
-            rollout_step,
-            (state.env_state, state.episodes),
-            jax.random.split(key_rollout, config.rollout_steps),
+        (env_state, episodes), batch = rollout(
+            env_step,
+            state.actor,
+            obs_stats,
+            state.env_state,
+            state.episodes,
+            key_rollout,
+            config.rollout_steps,
         )  # batch leaves [L, N, ...]
 
         discounted_return, seen = accumulate_returns(
@@ -672,17 +673,13 @@ def make_trainer(config: PPOConfig, env) -> Trainer:
                 obs_stats, batch.obs.reshape((n_samples, obs_size))
             )
         newly_finished = jnp.sum(episodes.finished) - finished_before
-        has_finished = (episodes.finished > 0).astype(jnp.float32)[:, None]
-        episode_return = jnp.sum(episodes.last_return * has_finished, axis=0) / jnp.maximum(
-            jnp.sum(has_finished), 1.0
-        )
         metrics = {
             "train/j_hat": j_hat,
             "train/weights": weights,
             "train/scalarized": scalarized,
             "train/g_mu": scalarize.smooth_wc(j_hat, pref, z, config.mu),
             "train/utopia": z,
-            "train/episode_return": episode_return,
+            "train/episode_return": finished_episode_return(episodes),
             "train/episodes": newly_finished,
             "train/iteration": state.iteration + 1,
             "train/advantage": jnp.mean(adv, axis=(0, 1)),

@@ -196,6 +196,31 @@ def policy_step(policy, preprocess, v_step, actor_params, obs_stats, env_state, 
     return next_state, episodes, transition
 
 
+def rollout(env_step, actor_params, obs_stats, env_state, episodes, key, length: int):
+    """`length` steps of `env_step` (`policy_step` with its policy bound) under fixed
+    parameters; shared by both updates.
+
+    Returns:
+      `((env_state, episodes), transitions)`, the transitions' leaves `[length, N, ...]`.
+    """
+
+    def step(carry, key):
+        env_state, episodes = carry
+        env_state, episodes, tr = env_step(actor_params, obs_stats, env_state, episodes, key)
+        return (env_state, episodes), tr
+
+    return jax.lax.scan(step, (env_state, episodes), jax.random.split(key, length))
+
+
+def finished_episode_return(episodes: EpisodeStats) -> chex.Array:
+    """`[m]` the mean last return over the environments that have finished an episode
+    (0 while none has)."""
+    has_finished = (episodes.finished > 0).astype(jnp.float32)[:, None]
+    return jnp.sum(episodes.last_return * has_finished, axis=0) / jnp.maximum(
+        jnp.sum(has_finished), 1.0
+    )
+
+
 def make_trainer(config: TrainConfig, env) -> Trainer:
     """Builds the pure `init` and `run` of Algorithm 1 + 2 for `env` (see module doc).
 
@@ -299,13 +324,8 @@ def make_trainer(config: TrainConfig, env) -> Trainer:
         )
 
         # Algorithm 1: an M = N * L sample Markov batch under the same policy.
-        def rollout_step(carry, key):
-            env_state, episodes = carry
-            env_state, episodes, tr = env_step(state.actor, obs_stats, env_state, episodes, key)
-            return (env_state, episodes), tr
-
-        (env_state, episodes), batch = jax.lax.scan(
-            rollout_step, (env_state, episodes), jax.random.split(key_rollout, config.rollout_steps)
+        (env_state, episodes), batch = rollout(
+            env_step, state.actor, obs_stats, env_state, episodes, key_rollout, config.rollout_steps
         )
         flat = jax.tree.map(lambda x: x.reshape((-1, *x.shape[2:])), batch)  # [M, ...]
         avg = critic.averaged_params(crit)
@@ -335,17 +355,13 @@ def make_trainer(config: TrainConfig, env) -> Trainer:
             running_statistics.update(obs_stats, obs_seen) if config.normalize_obs else obs_stats
         )
         newly_finished = jnp.sum(episodes.finished) - finished_before
-        has_finished = (episodes.finished > 0).astype(jnp.float32)[:, None]
-        episode_return = jnp.sum(episodes.last_return * has_finished, axis=0) / jnp.maximum(
-            jnp.sum(has_finished), 1.0
-        )
         entropy = jnp.mean(policy.entropy(policy.apply(state.actor, obs_in)))
         metrics = {
             "train/j_hat": j_hat,
             "train/weights": weights,
             "train/scalarized": scalarized,
             "train/g_mu": scalarize.smooth_wc(j_hat, pref, j_ub, config.mu),
-            "train/episode_return": episode_return,
+            "train/episode_return": finished_episode_return(episodes),
             "train/episodes": newly_finished,
             "train/iteration": state.iteration + 1,
             "train/td_error": jnp.mean(td_abs, axis=0),
