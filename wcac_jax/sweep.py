@@ -23,6 +23,7 @@ process's devices, each process runs its shards, and only process 0 reads and wr
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 import os
@@ -40,7 +41,7 @@ from wcac_jax import distributed, envs, trainers
 from wcac_jax.config import TrainConfig
 from wcac_jax.outputs import json_bytes, summarize, write_atomic, write_outputs
 from wcac_jax.presets import PAPER_PREFS
-from wcac_jax.train import Trainer, TrainState, resolve_j_ub, with_env_steps
+from wcac_jax.train import TRACED_DIRECTIONS, Trainer, TrainState, resolve_j_ub, with_env_steps
 from wcac_jax.trainers import make_evaluate, make_trainer
 from wcac_jax.utopia import DEVICE_AXIS, PREF_AXIS
 
@@ -290,14 +291,16 @@ def _from_checkpoint(saved: dict, template):
     return treedef.unflatten([saved.get(str(i), x) for i, x in enumerate(leaves)])
 
 
-def _metric_template(trainer, state, pref) -> dict:
-    shapes = jax.eval_shape(trainer.step, state, pref)[1]
+def _metric_template(step, state, pref) -> dict:
+    shapes = jax.eval_shape(step, state, pref)[1]
     return jax.tree.map(lambda s: jnp.zeros(s.shape, s.dtype), shapes)
 
 
 def make_chunk(trainer: Trainer, n_iters: int, chunk_len: int):
-    """`chunk(state, pref) -> (state, metrics [chunk_len, ...])`: `chunk_len` iterations
-    of `trainer.step`, to be called under `jax.vmap(..., axis_name=PREF_AXIS)`.
+    """`chunk(state, pref, direction=None) -> (state, metrics [chunk_len, ...])`:
+    `chunk_len` iterations of `trainer.step`, to be called under
+    `jax.vmap(..., axis_name=PREF_AXIS)`; `direction` is the optional traced index into
+    `TRACED_DIRECTIONS` that `trainer.step` takes.
 
     Iterations at or past `n_iters` (the last chunk's padding when `chunk_len` does not
     divide `n_iters`) leave the state as it is and give zero metrics, and cost nothing:
@@ -307,11 +310,17 @@ def make_chunk(trainer: Trainer, n_iters: int, chunk_len: int):
     branches: the padding was trained in full and thrown away.)
     """
 
-    def chunk(state, pref):
+    def chunk(state, pref, direction=None):
+        step = (
+            trainer.step
+            if direction is None
+            else functools.partial(trainer.step, direction=direction)
+        )
+
         def body(state, _):
             active = jax.lax.pmin(state.iteration, PREF_AXIS) < n_iters
-            template = _metric_template(trainer, state, pref)
-            return jax.lax.cond(active, trainer.step, lambda s, p: (s, template), state, pref)
+            template = _metric_template(step, state, pref)
+            return jax.lax.cond(active, step, lambda s, p: (s, template), state, pref)
 
         return jax.lax.scan(body, state, None, length=chunk_len)
 
@@ -447,10 +456,19 @@ def run_sweep(
     eval_keys = jax.vmap(lambda k: jax.random.fold_in(k, 1 << 30))(keys)
     mesh = jax.make_mesh((n_dev,), (DEVICE_AXIS,), axis_types=(jax.sharding.AxisType.Auto,))
     sharded = jax.sharding.NamedSharding(mesh, P(DEVICE_AXIS))
+    # The scalarization as a traced per-preference index when `trainer.step` takes one
+    # (mgda does not): every traced scalarization of one configuration is then the same
+    # compiled program, which JAX's persistent compilation cache (JAX_COMPILATION_CACHE_DIR)
+    # serves to the next from the first one's compile.
+    per_pref = [prefs_pad]
+    if train_cfg.scalarization in TRACED_DIRECTIONS:
+        index = TRACED_DIRECTIONS.index(train_cfg.scalarization)
+        per_pref.append(np.full(n_prefs + n_pad, index, np.int32))
     # host values, the same on every process, laid out over every process's devices
-    prefs_dev, keys_dev, eval_keys_dev = distributed.to_global(
-        (prefs_pad, jax.random.key_data(keys), jax.random.key_data(eval_keys)), sharded
+    keys_dev, eval_keys_dev, *chunk_args = distributed.to_global(
+        (jax.random.key_data(keys), jax.random.key_data(eval_keys), *per_pref), sharded
     )
+    prefs_dev = chunk_args[0]
     writer = distributed.is_writer()
     if jax.process_count() > 1 and progress is not False:
         _say_part(sharded, n_prefs, n_pad)
@@ -518,7 +536,7 @@ def run_sweep(
             flush=True,
         )
     t0 = time.perf_counter()
-    chunk_exec = chunk_fn.lower(state, prefs_dev).compile()
+    chunk_exec = chunk_fn.lower(state, *chunk_args).compile()
     compile_s = time.perf_counter() - t0
     steps_per_iter = train_cfg.env_steps_per_iteration
     bar = _Progress(n_iters * steps_per_iter * n_prefs, progress if writer else False)
@@ -530,7 +548,7 @@ def run_sweep(
             if stop_after_chunks is not None and chunks_run >= stop_after_chunks:
                 return {"interrupted": True, "iterations_done": done_iters}
             t0 = time.perf_counter()
-            state, chunk_metrics = chunk_exec(state, prefs_dev)
+            state, chunk_metrics = chunk_exec(state, *chunk_args)
             chunk_metrics = distributed.to_host(chunk_metrics)
             dt = time.perf_counter() - t0
             train_s += dt
