@@ -4,6 +4,7 @@ Each compiled program is built once per session (module fixtures)."""
 
 import functools
 import math
+from typing import NamedTuple
 
 import chex
 import jax
@@ -16,6 +17,7 @@ from wcac_jax import envs
 from wcac_jax.config import TrainConfig
 from wcac_jax.envs import concave_bandit as cb
 from wcac_jax.train import (
+    assemble,
     env_steps,
     finished_episode_return,
     make_evaluate,
@@ -340,3 +342,31 @@ def test_rollout_steps_in_order_with_one_key_per_step():
     (state, episodes), keys = rollout(env_step, 2.0, None, 10.0, 0, key, 3)
     assert (float(state), int(episodes)) == (16.0, 3)
     np.testing.assert_array_equal(keys, jax.random.key_data(jax.random.split(key, 3)))
+
+
+def test_assemble_runs_the_step_and_takes_the_policy_mode():
+    # a stand-in step that counts iterations and records the preference and direction
+    def step(state, pref, direction=None):
+        return state + 1, {"pref0": pref[0], "direction": direction}
+
+    class Policy:  # the mode of a "distribution" that is the network's output itself
+        apply = staticmethod(lambda actor, x: actor * x)
+        mode = staticmethod(lambda dist: dist)
+        to_env = staticmethod(lambda a: jnp.clip(a, -1.0, 1.0))
+
+    class State(NamedTuple):
+        actor: float
+        obs_stats: float
+
+    preprocess = lambda stats, obs: obs - stats  # noqa: E731
+    trainer = assemble(None, step, Policy, None, preprocess, jnp.zeros(2))
+    state, metrics = trainer.run(0, jnp.array([0.25, 0.75]), 3, jnp.int32(2))
+    assert int(state) == 3
+    np.testing.assert_array_equal(metrics["pref0"], [0.25] * 3)
+    np.testing.assert_array_equal(metrics["direction"], [2] * 3)
+    with pytest.raises(AssertionError):  # a preference of the wrong length
+        trainer.run(0, jnp.array([0.2, 0.3, 0.5]), 3)
+    # 0.5 * ([1, 3, -4] - 1) = [0, 1, -2.5], clipped to [-1, 1]
+    action = trainer.mean_action(State(0.5, 1.0), jnp.array([1.0, 3.0, -4.0]))
+    np.testing.assert_allclose(action, [0.0, 1.0, -1.0])
+    assert trainer.step is step

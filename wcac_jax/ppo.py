@@ -49,6 +49,7 @@ from wcac_jax.envs.wrappers import EpisodeWrapper
 from wcac_jax.train import (
     TRACED_DIRECTIONS,
     Trainer,
+    assemble,
     finished_episode_return,
     init_episodes,
     policy_step,
@@ -703,14 +704,4 @@ def make_trainer(config: PPOConfig, env) -> Trainer:
         )
         return new_state, metrics
 
-    def run(state: PPOState, pref: chex.Array, num_iterations: int, direction=None):
-        chex.assert_shape(pref, (m,))
-        return jax.lax.scan(
-            lambda s, _: iteration(s, pref, direction), state, None, length=num_iterations
-        )
-
-    def mean_action(state: PPOState, obs: chex.Array) -> chex.Array:
-        dist = policy.apply(state.actor, preprocess(state.obs_stats, obs))
-        return policy.to_env(policy.mode(dist))
-
-    return Trainer(init, run, iteration, policy, value_net, preprocess, mean_action, j_ub)
+    return assemble(init, iteration, policy, value_net, preprocess, j_ub)

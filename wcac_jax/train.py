@@ -108,6 +108,26 @@ class Trainer(NamedTuple):
     j_ub: chex.Array
 
 
+def assemble(init, step, policy, value_net, preprocess, j_ub: chex.Array) -> Trainer:
+    """The `Trainer` of an update given its `init` and one-iteration `step`
+    `(state, pref [m], direction=None) -> (state, metrics)`: `run` scans `step`, and
+    `mean_action` is the policy's mode, reading only `state.actor` and `state.obs_stats`
+    (which every update's state has). `j_ub`: `[m]`."""
+    m = j_ub.shape[0]
+
+    def run(state, pref: chex.Array, num_iterations: int, direction=None):
+        chex.assert_shape(pref, (m,))
+        return jax.lax.scan(
+            lambda s, _: step(s, pref, direction), state, None, length=num_iterations
+        )
+
+    def mean_action(state, obs: chex.Array) -> chex.Array:
+        dist = policy.apply(state.actor, preprocess(state.obs_stats, obs))
+        return policy.to_env(policy.mode(dist))
+
+    return Trainer(init, run, step, policy, value_net, preprocess, mean_action, j_ub)
+
+
 def _typed_key(key: chex.PRNGKey) -> chex.PRNGKey:
     """Accepts a typed key (`jax.random.key`) or raw uint32 key data (`PRNGKey`)."""
     if jnp.issubdtype(key.dtype, jax.dtypes.prng_key):
@@ -380,17 +400,7 @@ def make_trainer(config: TrainConfig, env) -> Trainer:
         )
         return new_state, metrics
 
-    def run(state: TrainState, pref: chex.Array, num_iterations: int, direction=None):
-        chex.assert_shape(pref, (m,))
-        return jax.lax.scan(
-            lambda s, _: iteration(s, pref, direction), state, None, length=num_iterations
-        )
-
-    def mean_action(state: TrainState, obs: chex.Array) -> chex.Array:
-        dist = policy.apply(state.actor, preprocess(state.obs_stats, obs))
-        return policy.to_env(policy.mode(dist))
-
-    return Trainer(init, run, iteration, policy, value_net, preprocess, mean_action, j_ub)
+    return assemble(init, iteration, policy, value_net, preprocess, j_ub)
 
 
 def env_steps(config: TrainConfig, iterations) -> np.ndarray:
