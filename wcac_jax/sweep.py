@@ -23,7 +23,6 @@ process's devices, each process runs its shards, and only process 0 reads and wr
 
 from __future__ import annotations
 
-import functools
 import json
 import math
 import os
@@ -37,7 +36,7 @@ import jax.numpy as jnp
 import numpy as np
 from jax.sharding import PartitionSpec as P
 
-from wcac_jax import distributed, envs, trainers
+from wcac_jax import checkpoint, distributed, envs, trainers
 from wcac_jax.config import TrainConfig
 from wcac_jax.outputs import json_bytes, summarize, write_atomic, write_outputs
 from wcac_jax.presets import PAPER_PREFS
@@ -277,30 +276,15 @@ class _Progress:
             self.bar.close()
 
 
-def _to_checkpoint(tree) -> dict:
-    """The non-empty leaves of `tree` by position (orbax cannot save zero-size arrays,
-    such as MJX's actuator activations of a model without activation dynamics)."""
-    # numpy leaves (a pytree such as Brax's UInt64 turns numpy back into jax arrays when
-    # rebuilt, and orbax refuses a host-local jax array once several processes run)
-    leaves = jax.tree.leaves(tree)
-    return {str(i): np.asarray(x) for i, x in enumerate(leaves) if np.size(x) > 0}
-
-
-def _from_checkpoint(saved: dict, template):
-    leaves, treedef = jax.tree.flatten(template)
-    return treedef.unflatten([saved.get(str(i), x) for i, x in enumerate(leaves)])
-
-
 def _metric_template(step, state, pref) -> dict:
     shapes = jax.eval_shape(step, state, pref)[1]
     return jax.tree.map(lambda s: jnp.zeros(s.shape, s.dtype), shapes)
 
 
 def make_chunk(trainer: Trainer, n_iters: int, chunk_len: int):
-    """`chunk(state, pref, direction=None) -> (state, metrics [chunk_len, ...])`:
-    `chunk_len` iterations of `trainer.step`, to be called under
-    `jax.vmap(..., axis_name=PREF_AXIS)`; `direction` is the optional traced index into
-    `TRACED_DIRECTIONS` that `trainer.step` takes.
+    """`chunk(state, pref[, direction]) -> (state, metrics [chunk_len, ...])`: `chunk_len`
+    iterations of `trainer.step` (given the optional traced index `direction` into
+    `TRACED_DIRECTIONS`), to be called under `jax.vmap(..., axis_name=PREF_AXIS)`.
 
     Iterations at or past `n_iters` (the last chunk's padding when `chunk_len` does not
     divide `n_iters`) leave the state as it is and give zero metrics, and cost nothing:
@@ -310,12 +294,8 @@ def make_chunk(trainer: Trainer, n_iters: int, chunk_len: int):
     branches: the padding was trained in full and thrown away.)
     """
 
-    def chunk(state, pref, direction=None):
-        step = (
-            trainer.step
-            if direction is None
-            else functools.partial(trainer.step, direction=direction)
-        )
+    def chunk(state, pref, *direction):
+        step = lambda s, p: trainer.step(s, p, *direction)  # noqa: E731
 
         def body(state, _):
             active = jax.lax.pmin(state.iteration, PREF_AXIS) < n_iters
@@ -366,11 +346,8 @@ def load_sweep(out: str) -> LoadedSweep:
             config = SweepConfig.from_dict(json.load(f))
     except (OSError, UnicodeDecodeError, json.JSONDecodeError, KeyError, TypeError) as err:
         raise SweepError(f"{path!r} holds no readable sweep config ({err!r})") from None
-    import orbax.checkpoint as ocp
-
-    manager = ocp.CheckpointManager(os.path.abspath(os.path.join(out, "checkpoint")))
-    step = manager.latest_step()
-    if step is None:
+    manager = checkpoint.manager(out)
+    if manager.latest_step() is None:
         raise SweepError(f"no checkpoint in {out!r}")
     env = make_env(config)
     trainer = make_trainer(config.train_config(), env)
@@ -388,8 +365,7 @@ def load_sweep(out: str) -> LoadedSweep:
             k: np.zeros((n_prefs, n_iters, *s.shape[1:]), s.dtype) for k, s in shapes.items()
         },
     }
-    restored = manager.restore(step, args=ocp.args.StandardRestore(_to_checkpoint(template)))
-    restored = _from_checkpoint(restored, template)
+    restored = checkpoint.restore(manager, template)
     state = jax.tree.map(jnp.asarray, restored["state"])
     metrics = with_env_steps(config.train_config(), restored["metrics"])
     return LoadedSweep(config, trainer, state, metrics)
@@ -456,10 +432,8 @@ def run_sweep(
     eval_keys = jax.vmap(lambda k: jax.random.fold_in(k, 1 << 30))(keys)
     mesh = jax.make_mesh((n_dev,), (DEVICE_AXIS,), axis_types=(jax.sharding.AxisType.Auto,))
     sharded = jax.sharding.NamedSharding(mesh, P(DEVICE_AXIS))
-    # The scalarization as a traced per-preference index when `trainer.step` takes one
-    # (mgda does not): every traced scalarization of one configuration is then the same
-    # compiled program, which JAX's persistent compilation cache (JAX_COMPILATION_CACHE_DIR)
-    # serves to the next from the first one's compile.
+    # the scalarization as a traced index (mgda has none): a configuration's sweeps in
+    # each direction are then one program (the persistent compilation cache serves it)
     per_pref = [prefs_pad]
     if train_cfg.scalarization in TRACED_DIRECTIONS:
         index = TRACED_DIRECTIONS.index(train_cfg.scalarization)
@@ -513,14 +487,14 @@ def run_sweep(
         os.makedirs(out, exist_ok=True)
         if not resume:
             write_atomic(os.path.join(out, "config.json"), json_bytes(config.to_dict()))
-        manager = _checkpoint_manager(out)
+        manager = checkpoint.manager(out)
     if out is not None and resume:
         # process 0 reads the checkpoint; the others receive it (no shared file system)
         host = {"state": jax.tree.map(lambda x: np.zeros(x.shape, x.dtype), state)}
         host["metrics"] = metrics
         found = manager is not None and manager.latest_step() is not None
         if found:
-            host = _restore(manager, host)
+            host = checkpoint.restore(manager, host)
         if distributed.all_ok(found):
             host = distributed.broadcast(host)
             state = distributed.to_global(host["state"], sharded)
@@ -563,11 +537,7 @@ def run_sweep(
             if out is not None:
                 host_state = distributed.to_host(state)  # every process takes part
                 if manager is not None:
-                    import orbax.checkpoint as ocp
-
-                    payload = _to_checkpoint({"state": host_state, "metrics": metrics})
-                    manager.save(done_iters, args=ocp.args.StandardSave(payload))
-                    manager.wait_until_finished()
+                    checkpoint.save(manager, done_iters, {"state": host_state, "metrics": metrics})
             bar.update(done_iters * steps_per_iter * n_prefs, dt, chunk_steps)
     finally:
         bar.close()
@@ -616,31 +586,6 @@ def _say_part(sharding, n_prefs: int, n_pad: int) -> None:
         file=sys.stderr,
         flush=True,
     )
-
-
-def _checkpoint_manager(out: str):
-    import orbax.checkpoint as ocp
-
-    extra = {}
-    if jax.process_count() > 1:  # process 0 alone saves (host arrays, no barrier)
-        extra["multiprocessing_options"] = ocp.options.MultiprocessingOptions(
-            primary_host=0, active_processes={0}
-        )
-    path = os.path.abspath(os.path.join(out, "checkpoint"))
-    os.makedirs(path, exist_ok=True)  # orbax can't create it when only process 0 saves
-    options = ocp.CheckpointManagerOptions(
-        max_to_keep=1, create=False, enable_async_checkpointing=False, **extra
-    )
-    return ocp.CheckpointManager(path, options=options)
-
-
-def _restore(manager, template):
-    import orbax.checkpoint as ocp
-
-    restored = manager.restore(
-        manager.latest_step(), args=ocp.args.StandardRestore(_to_checkpoint(template))
-    )
-    return jax.tree.map(np.asarray, _from_checkpoint(restored, template))
 
 
 def _host_memory_bytes() -> int:
