@@ -156,9 +156,10 @@ def exact_front_hypervolume(front: np.ndarray, ref) -> float:
     return pareto.hypervolume(dense, ref)
 
 
-def summarise_dst(points: np.ndarray, front: np.ndarray, targets: np.ndarray, min_dist) -> dict:
+def summarise_dst(points: np.ndarray, front: np.ndarray, targets: np.ndarray, exact_hv, min_dist):
     """Distinct points, each point's distance to the exact front and to its preference's
-    weighted-Chebyshev optimum (`targets`, `[P, 2]`), HV ratio, and the largest gap
+    weighted-Chebyshev optimum (`targets`, `[P, 2]`), HV ratio (to the exact front's
+    `exact_hv`, see `exact_front_hypervolume`), and the largest gap
     between neighbouring points on the front (within `NEAR_FRONT` of it), along the
     front (fraction of its length, ends included)."""
     ref = np.asarray(DST_HV_REF)
@@ -179,7 +180,7 @@ def summarise_dst(points: np.ndarray, front: np.ndarray, targets: np.ndarray, mi
         "max_distance_to_wc_optimum": float(np.nanmax(to_target)),
         "median_distance_to_wc_optimum": float(np.nanmedian(to_target)),
         "hypervolume": pareto.hypervolume(pts, ref),
-        "hypervolume_ratio": pareto.hypervolume(pts, ref) / exact_front_hypervolume(front, ref),
+        "hypervolume_ratio": pareto.hypervolume(pts, ref) / exact_hv,
         "largest_gap_along_front": float(gaps.max()),
         "diverged": int((~finite).sum()),
         "points": points.tolist(),
@@ -269,11 +270,12 @@ def main(argv=None) -> int:
         front = dst_env.exact_front(DST.gamma)
         j_ub = dst_env.DeepSeaTreasure.default_j_ub
         targets = np.stack([dst_wc_optimum(p, front, j_ub) for p in prefs])
+        exact_hv = exact_front_hypervolume(front, np.asarray(DST_HV_REF))
         dst = {
             "j_ub": list(dst_env.DeepSeaTreasure.default_j_ub),
             "hv_ref": list(DST_HV_REF),
             "exact_front": front.tolist(),
-            "exact_front_hypervolume": exact_front_hypervolume(front, np.asarray(DST_HV_REF)),
+            "exact_front_hypervolume": exact_hv,
             "treasure_path_returns": dst_env.path_returns(DST.gamma).tolist(),
             "wc_optimum": targets.tolist(),
             "config": DST.replace(num_iterations=iters).to_dict(),
@@ -281,7 +283,7 @@ def main(argv=None) -> int:
         }
         runs = dst_directions(args.directions, prefs, iters, args.seed)
         for direction in args.directions:
-            summary = summarise_dst(runs[direction], front, targets, 1.0)
+            summary = summarise_dst(runs[direction], front, targets, exact_hv, 1.0)
             dst["directions"][direction] = summary
             print(
                 f"deep_sea_treasure {direction:>10}: {summary['distinct_points']:>2} distinct "
