@@ -52,6 +52,34 @@ def test_nondominated_against_brute_force_with_ties():
             assert mask[i] == (not dominated and first)
 
 
+def test_nondominated_2d_by_hand():
+    # (3,1) and (1,3) trade off; (2,2) too; (2,1) is dominated by (2,2) (same x) and by
+    # (3,1) (same y); (1,3) repeated: kept once, its first row; (0,5) beats every y
+    pts = [[1, 3], [2, 1], [3, 1], [2, 2], [1, 3], [0, 5], [-np.inf, 5], [np.inf, -np.inf]]
+    np.testing.assert_array_equal(
+        pareto.nondominated(pts), [True, False, True, True, False, True, False, True]
+    )
+    assert pareto.nondominated(np.zeros((0, 2))).shape == (0,)
+
+
+def test_nondominated_2d_sort_matches_pairwise_comparison():
+    """The sort of two objectives against every pair compared: many points, ties in x,
+    in y and whole rows, infinities."""
+    rng = np.random.default_rng(1)
+    for _ in range(40):
+        n = int(rng.integers(1, 300))
+        pts = rng.integers(-5, 6, (n, 2)).astype(np.float64)
+        pts[rng.uniform(size=(n, 2)) < 0.02] = np.inf
+        pts[rng.uniform(size=(n, 2)) < 0.02] = -np.inf
+        if rng.uniform() < 0.5:  # sparser ties
+            pts += rng.normal(size=(n, 2)) * (rng.uniform(size=(n, 1)) < 0.5)
+        ge = np.all(pts[None, :] >= pts[:, None], axis=-1)  # [i, j]: j >= i everywhere
+        gt = np.any(pts[None, :] > pts[:, None], axis=-1)
+        same = np.all(pts[None, :] == pts[:, None], axis=-1)
+        expected = ~np.any(ge & gt, axis=1) & ~np.any(np.tril(same, -1), axis=1)
+        np.testing.assert_array_equal(pareto.nondominated(pts), expected)
+
+
 def test_outside_reference_by_hand():
     pts = [[1, 3], [2, -1], [0, 5], [-3, -3]]
     # (2, -1) is below ref in y, (0, 5) on its boundary in x: neither adds volume

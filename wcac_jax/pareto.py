@@ -32,9 +32,12 @@ def _points(points, name: str = "points") -> np.ndarray:
 def nondominated(points) -> np.ndarray:
     """Boolean mask `[n]` of the non-dominated rows of `points` `[n, m]`.
 
-    Duplicated non-dominated points are kept once (the first occurrence).
+    Duplicated non-dominated points are kept once (the first occurrence). Two objectives
+    take `O(n log n)` (a sort), more take `O(n^2)`.
     """
     pts = _points(points)
+    if pts.shape[1] == 2:
+        return _nondominated2d(pts)
     n = pts.shape[0]
     mask = np.ones(n, dtype=bool)
     for i in range(n):
@@ -46,6 +49,28 @@ def nondominated(points) -> np.ndarray:
         same = np.all(pts == pts[i], axis=1)
         if np.any(same[:i]):
             mask[i] = False
+    return mask
+
+
+def _nondominated2d(pts: np.ndarray) -> np.ndarray:
+    """`nondominated` for `[n, 2]` points, by one sort.
+
+    In the order x descending, then y descending, then row: a point is dominated when a
+    point of larger x (an earlier group of equal x) reaches its y, or when its own group's
+    first point has a larger y; of equal points, the first row is kept.
+    """
+    n = pts.shape[0]
+    x, y = pts[:, 0], pts[:, 1]
+    order = np.lexsort((np.arange(n), -y, -x))  # the last key sorts first
+    xs, ys = x[order], y[order]
+    new_group = np.r_[True, xs[1:] != xs[:-1]]
+    start = np.maximum.accumulate(np.where(new_group, np.arange(n), 0))  # of each group
+    best_y = np.maximum.accumulate(ys)  # over this point and every one before it
+    by_larger_x = (start > 0) & (best_y[start - 1] >= ys)
+    dominated = by_larger_x | (ys < ys[start])
+    repeat = np.r_[False, (xs[1:] == xs[:-1]) & (ys[1:] == ys[:-1])]
+    mask = np.empty(n, dtype=bool)
+    mask[order] = ~(dominated | repeat)
     return mask
 
 
