@@ -22,7 +22,8 @@ policy (`M = N * L` transitions), and then:
    normalised) scalarized advantage (`clipped_surrogate`), plus the critic's regression
    on its GAE targets.
 
-`make_trainer` returns the same `train.Trainer` as the paper's update, so sweeps,
+`make_trainer` returns the same `train.Trainer` as the paper's update (through
+`train.assemble`, which adds the shared `run` and `mean_action`), so sweeps,
 evaluation, checkpoints and chunking work unchanged. Each iteration costs `N * L`
 environment steps. Iteration `t` draws its randomness from `fold_in(state.key, t)`.
 """

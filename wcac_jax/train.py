@@ -5,7 +5,8 @@ and returns pure functions:
 
 - `init(key, pref) -> TrainState` — networks, `N` environments, normaliser;
 - `run(state, pref, num_iterations) -> (state, metrics)` — `num_iterations` outer
-  iterations as one `lax.scan`; metrics are stacked per iteration (`[T, ...]`).
+  iterations as one `lax.scan`; metrics are stacked per iteration (`[T, ...]`)
+  (`assemble` builds it, and `mean_action`, from one iteration's `step`, for both updates).
 
 Iteration `t` uses the key `fold_in(state.key, t)`, so splitting a run into chunks of
 `run` calls gives bit-identical results to one call. Per iteration, for one preference:
