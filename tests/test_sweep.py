@@ -183,12 +183,13 @@ def test_sigkill_then_resume_equals_uninterrupted(tmp_path):
         text=True,
     )
     for line in proc.stderr:  # plain progress lines: one per saved chunk
-        if line.startswith("[sweep]"):
+        if line.startswith("[sweep]") and "env steps" in line:
             proc.send_signal(signal.SIGKILL)
             break
     proc.wait()
     assert proc.returncode == -signal.SIGKILL
     assert not os.path.exists(os.path.join(out, "front.json"))  # really interrupted
+    assert os.listdir(os.path.join(out, "checkpoint"))  # after a saved chunk
     resumed = _cli([*SLOW, "--out", out, "--resume"])
     assert resumed.returncode == 0, resumed.stderr
     full = _cli([*SLOW, "--out", str(tmp_path / "full")])

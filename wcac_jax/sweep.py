@@ -32,6 +32,7 @@ from dataclasses import dataclass, field, replace
 from typing import NamedTuple
 
 import jax
+import jax.extend
 import jax.numpy as jnp
 import numpy as np
 from jax.sharding import PartitionSpec as P
@@ -276,11 +277,6 @@ class _Progress:
             self.bar.close()
 
 
-def _metric_template(step, state, pref) -> dict:
-    shapes = jax.eval_shape(step, state, pref)[1]
-    return jax.tree.map(lambda s: jnp.zeros(s.shape, s.dtype), shapes)
-
-
 def make_chunk(trainer: Trainer, n_iters: int, chunk_len: int):
     """`chunk(state, pref[, direction]) -> (state, metrics [chunk_len, ...])`: `chunk_len`
     iterations of `trainer.step` (given the optional traced index `direction` into
@@ -295,12 +291,22 @@ def make_chunk(trainer: Trainer, n_iters: int, chunk_len: int):
     """
 
     def chunk(state, pref, *direction):
-        step = lambda s, p: trainer.step(s, p, *direction)  # noqa: E731
-
         def body(state, _):
             active = jax.lax.pmin(state.iteration, PREF_AXIS) < n_iters
-            template = _metric_template(step, state, pref)
-            return jax.lax.cond(active, step, lambda s, p: (s, template), state, pref)
+            # the step traced once (slow for MJX): `cond` replays its jaxpr, and a skipped
+            # iteration gives zeros of the shapes that trace found
+            step, shapes = jax.make_jaxpr(
+                lambda s, p: trainer.step(s, p, *direction), return_shape=True
+            )(state, pref)
+            replay = jax.extend.core.jaxpr_as_fun(step)
+            tree = jax.tree.structure(shapes)
+            return jax.lax.cond(
+                active,
+                lambda s, p: tree.unflatten(replay(*jax.tree.leaves((s, p)))),
+                lambda s, p: (s, jax.tree.map(lambda x: jnp.zeros(x.shape, x.dtype), shapes[1])),
+                state,
+                pref,
+            )
 
         return jax.lax.scan(body, state, None, length=chunk_len)
 
@@ -468,10 +474,21 @@ def run_sweep(
     )
     chunk_fn = jax.jit(per_device(jax.vmap(chunk, axis_name=PREF_AXIS)), donate_argnums=0)
     state = init_fn(keys_dev, prefs_dev)
-    abstract = jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape, x.dtype), (state, prefs_dev))
-    template = jax.eval_shape(jax.vmap(trainer.step, axis_name=PREF_AXIS), *abstract)[1]
+    if progress is not False and writer:
+        slow = env.backend == "mjx" and jax.default_backend() == "cpu"
+        print(
+            f"[sweep] compiling the training program for {n_prefs} preferences"
+            + (" (MJX on a CPU: a minute or more)" if slow else ""),
+            file=sys.stderr,
+            flush=True,
+        )
+    t0 = time.perf_counter()
+    lowered = chunk_fn.lower(state, *chunk_args)  # traces the training step
+    lower_s = time.perf_counter() - t0
+    # per-iteration metrics, shaped as the program returns them (`[P, chunk_len, ...]`)
+    template = lowered.out_info[1]
     metrics_bytes = sum(
-        n_prefs * n_iters * math.prod(s.shape[1:]) * np.dtype(s.dtype).itemsize
+        n_prefs * n_iters * math.prod(s.shape[2:]) * np.dtype(s.dtype).itemsize
         for s in template.values()
     )
     if metrics_bytes > _host_memory_bytes():
@@ -480,7 +497,7 @@ def run_sweep(
             f"per-iteration metrics ({n_iters:,} iterations x {n_prefs} preferences); this "
             f"machine has {_host_memory_bytes() / 2**30:,.1f} GiB"
         )
-    metrics = {k: np.zeros((n_prefs, n_iters, *s.shape[1:]), s.dtype) for k, s in template.items()}
+    metrics = {k: np.zeros((n_prefs, n_iters, *s.shape[2:]), s.dtype) for k, s in template.items()}
 
     manager = None
     if out is not None and writer:  # only process 0 touches `out`
@@ -501,17 +518,9 @@ def run_sweep(
             metrics = {k: np.array(v) for k, v in host["metrics"].items()}  # writable
 
     done_iters = int(np.asarray(state.iteration.addressable_shards[0].data)[0])
-    if progress is not False and writer:
-        slow = env.backend == "mjx" and jax.default_backend() == "cpu"
-        print(
-            f"[sweep] compiling the training program for {n_prefs} preferences"
-            + (" (MJX on a CPU: a minute or more)" if slow else ""),
-            file=sys.stderr,
-            flush=True,
-        )
     t0 = time.perf_counter()
-    chunk_exec = chunk_fn.lower(state, *chunk_args).compile()
-    compile_s = time.perf_counter() - t0
+    chunk_exec = lowered.compile()
+    compile_s = lower_s + time.perf_counter() - t0
     steps_per_iter = train_cfg.env_steps_per_iteration
     bar = _Progress(n_iters * steps_per_iter * n_prefs, progress if writer else False)
     wall_start = time.perf_counter()
