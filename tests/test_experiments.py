@@ -30,16 +30,6 @@ TINY_WALKER = [
 ]
 
 
-@pytest.fixture(scope="module")
-def jax_cache(tmp_path_factory):
-    path = str(tmp_path_factory.mktemp("jax-cache"))
-    return {
-        "JAX_COMPILATION_CACHE_DIR": path,
-        "JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS": "0",
-        "JAX_PERSISTENT_CACHE_MIN_ENTRY_SIZE_BYTES": "-1",
-    }
-
-
 def _run(script, *args, env=None):
     proc = subprocess.run(
         [sys.executable, os.path.join(ROOT, "experiments", script), *args],

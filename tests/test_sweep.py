@@ -60,33 +60,22 @@ def _load(out):
 
 
 @pytest.fixture(scope="module")
-def tiny_cache(tmp_path_factory):
-    """A JAX persistent compilation cache (its directory, the environment that sets it)."""
-    path = tmp_path_factory.mktemp("jax-cache")
-    return path, {
-        "JAX_COMPILATION_CACHE_DIR": str(path),
-        "JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS": "0",
-        "JAX_PERSISTENT_CACHE_MIN_ENTRY_SIZE_BYTES": "-1",
-    }
-
-
-@pytest.fixture(scope="module")
-def tiny_run(tmp_path_factory, tiny_cache):
+def tiny_run(tmp_path_factory, jax_cache):
     out = str(tmp_path_factory.mktemp("sweep") / "run")
-    proc = _cli([*TINY, "--n-prefs", "4", "--chunks", "3", "--out", out], env=tiny_cache[1])
+    proc = _cli([*TINY, "--n-prefs", "4", "--chunks", "3", "--out", out], env=jax_cache)
     assert proc.returncode == 0, proc.stderr
     return out
 
 
-def test_every_traced_scalarization_is_one_compiled_program(tiny_run, tiny_cache, tmp_path):
+def test_every_traced_scalarization_is_one_compiled_program(tiny_run, jax_cache, tmp_path):
     """The sweep passes `smooth_wc`, `wc` or `linear` to its training program as a traced
     index, so a sweep in another direction of the same configuration is the same program:
     JAX's persistent compilation cache serves all it compiles (no entry is added)."""
-    cache, env = tiny_cache
+    cache = jax_cache["JAX_COMPILATION_CACHE_DIR"]
     before = {f for f in os.listdir(cache) if f.endswith("-cache")}
     assert any(f.startswith("jit_chunk") for f in before), sorted(before)
     args = ["--n-prefs", "4", "--chunks", "3", "--scalarization", "linear"]
-    proc = _cli([*TINY, *args, "--out", str(tmp_path / "linear")], env)
+    proc = _cli([*TINY, *args, "--out", str(tmp_path / "linear")], jax_cache)
     assert proc.returncode == 0, proc.stderr
     assert {f for f in os.listdir(cache) if f.endswith("-cache")} == before
 
