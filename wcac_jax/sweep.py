@@ -295,10 +295,10 @@ def make_chunk(trainer: Trainer, n_iters: int, chunk_len: int):
             active = jax.lax.pmin(state.iteration, PREF_AXIS) < n_iters
             # the step traced once (slow for MJX): `cond` replays its jaxpr, and a skipped
             # iteration gives zeros of the shapes that trace found
-            step, shapes = jax.make_jaxpr(
+            jaxpr, shapes = jax.make_jaxpr(
                 lambda s, p: trainer.step(s, p, *direction), return_shape=True
             )(state, pref)
-            replay = jax.extend.core.jaxpr_as_fun(step)
+            replay = jax.extend.core.jaxpr_as_fun(jaxpr)
             tree = jax.tree.structure(shapes)
             return jax.lax.cond(
                 active,
