@@ -28,6 +28,10 @@ TINY_WALKER = [
     *("--steps-per-pref", "160", "--envs-per-pref", "4", "--eval-episodes", "1"),
     *("--chunks", "2"),
 ]
+# The front's committed results ran on the paper's model in MuJoCo's C engine, which
+# compiles in seconds; the ablation test keeps the scripts' default (Brax's model on MJX,
+# the accelerator path), the one end-to-end MJX training run of the suite.
+C_ENGINE = ("--physics", "gymnasium-v5", "--engine", "mujoco")
 
 
 def _run(script, *args, env=None):
@@ -370,11 +374,13 @@ def test_walker2d_front_tiny(tmp_path, jax_cache):
     _run(
         "walker2d_front.py",
         *TINY_WALKER,
+        *C_ENGINE,
         *("--width", "16", "--depth", "1", "--out", str(tmp_path)),
         env=jax_cache,
     )
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert summary["config_name"] == "paper" and summary["steps_per_pref"] == 160
+    assert (summary["physics"], summary["engine"]) == ("gymnasium-v5", "mujoco")
     assert set(summary["directions"]) == {"smooth_wc", "linear"}
     for direction, res in summary["directions"].items():
         front = json.loads((tmp_path / direction / "front.json").read_text())
@@ -406,13 +412,8 @@ def test_walker2d_front_tiny(tmp_path, jax_cache):
     proc = _run(
         "walker2d_front.py",
         *TINY_WALKER,
-        "--width",
-        "16",
-        "--depth",
-        "1",
-        "--out",
-        str(tmp_path),
-        "--resume",
+        *C_ENGINE,
+        *("--width", "16", "--depth", "1", "--out", str(tmp_path), "--resume"),
         env=jax_cache,
     )
     assert "linear: 9 preferences" in proc.stdout
@@ -429,13 +430,13 @@ def test_walker2d_ablation_tiny(tmp_path, jax_cache):
     _run(
         "walker2d_ablation.py",
         *TINY_WALKER,
-        # nine seeds at the front test's sizes: the same programs, so the cache serves them
         *("--seeds", "9", "--depths", "1", "--widths", "16", "--fixed-width", "16"),
         *("--fixed-depth", "1", "--out", str(tmp_path)),
         env=jax_cache,
     )
     result = json.loads((tmp_path / "ablation.json").read_text())
     assert result["seeds"] == 9 and result["pref"] == [0.9, 0.1]
+    assert (result["physics"], result["engine"]) == ("brax", "mjx")  # the MJX run
     (size,) = result["sizes"]
     assert (size["depth"], size["width"]) == (1, 16)
     front = json.loads((tmp_path / "D1_w16" / "front.json").read_text())
