@@ -21,9 +21,6 @@ import walker2d_front  # noqa: E402
 
 from wcac_jax import cli, plot  # noqa: E402
 
-# The Walker2d scripts run one sweep per direction or network size, each compiling its
-# own init, training and evaluation programs; a shared persistent compilation cache lets
-# the second sweep reuse the programs that are the same (init, evaluation).
 TINY_WALKER = [
     *("--steps-per-pref", "160", "--envs-per-pref", "4", "--eval-episodes", "1"),
     *("--chunks", "2"),
@@ -367,7 +364,7 @@ def test_ablation_grid_is_the_papers():
 
 
 @pytest.mark.slow
-def test_walker2d_front_tiny(tmp_path, jax_cache):
+def test_walker2d_front_tiny(tmp_path):
     import scipy.stats
     from pymoo.indicators.hv import HV
 
@@ -376,7 +373,6 @@ def test_walker2d_front_tiny(tmp_path, jax_cache):
         *TINY_WALKER,
         *C_ENGINE,
         *("--width", "16", "--depth", "1", "--out", str(tmp_path)),
-        env=jax_cache,
     )
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert summary["config_name"] == "paper" and summary["steps_per_pref"] == 160
@@ -414,7 +410,6 @@ def test_walker2d_front_tiny(tmp_path, jax_cache):
         *TINY_WALKER,
         *C_ENGINE,
         *("--width", "16", "--depth", "1", "--out", str(tmp_path), "--resume"),
-        env=jax_cache,
     )
     assert "linear: 9 preferences" in proc.stdout
     again = json.loads((tmp_path / "summary.json").read_text())
@@ -426,13 +421,12 @@ def test_walker2d_front_tiny(tmp_path, jax_cache):
 
 
 @pytest.mark.slow
-def test_walker2d_ablation_tiny(tmp_path, jax_cache):
+def test_walker2d_ablation_tiny(tmp_path):
     _run(
         "walker2d_ablation.py",
         *TINY_WALKER,
         *("--seeds", "9", "--depths", "1", "--widths", "16", "--fixed-width", "16"),
         *("--fixed-depth", "1", "--out", str(tmp_path)),
-        env=jax_cache,
     )
     result = json.loads((tmp_path / "ablation.json").read_text())
     assert result["seeds"] == 9 and result["pref"] == [0.9, 0.1]
