@@ -439,7 +439,8 @@ def run_sweep(
     mesh = jax.make_mesh((n_dev,), (DEVICE_AXIS,), axis_types=(jax.sharding.AxisType.Auto,))
     sharded = jax.sharding.NamedSharding(mesh, P(DEVICE_AXIS))
     # the scalarization as a traced index (mgda has none): a configuration's sweeps in
-    # each direction are then one program (the persistent compilation cache serves it)
+    # each direction are then one program (the persistent compilation cache serves it,
+    # unless it has host callbacks, as MuJoCo's C engine does: JAX caches none of those)
     per_pref = [prefs_pad]
     if train_cfg.scalarization in TRACED_DIRECTIONS:
         index = TRACED_DIRECTIONS.index(train_cfg.scalarization)
