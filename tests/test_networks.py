@@ -1,4 +1,4 @@
-"""The paper's network, the MLP, the policy head and the projection, by hand."""
+"""The paper's network, the MLPs, the policy head and the projection, by hand."""
 
 import math
 
@@ -81,6 +81,40 @@ def test_mlp_network_shapes_and_selection():
         networks.make_network("cnn", 5, 2, 16, 3)
     with pytest.raises(ValueError, match="depth"):
         networks.make_network("paper", 5, 2, 16, 0)
+
+
+def test_orthogonal_init_without_lapack():
+    """`networks.orthogonal`: `W^T W = scale^2 I` (or `W W^T` for wide `W`), per key."""
+    for shape in [(17, 64), (64, 64), (64, 6)]:
+        w = networks.orthogonal(2.0)(jax.random.key(3), shape)
+        assert w.shape == shape
+        gram = w.T @ w if shape[0] >= shape[1] else w @ w.T
+        np.testing.assert_allclose(gram, 4.0 * np.eye(min(shape)), atol=1e-5)
+    a, b = (networks.orthogonal()(jax.random.key(k), (8, 8)) for k in (0, 1))
+    assert not np.allclose(a, b)
+
+
+def test_tanh_mlp_forward_by_hand_and_its_initial_gains():
+    net = networks.tanh_mlp(in_dim=2, out_dim=1, width=2, depth=1, out_scale=0.01)
+    params = net.init(jax.random.key(0))
+    assert params.fixed == {}
+    dense = {
+        "Dense_0": {"kernel": jnp.eye(2), "bias": jnp.array([0.0, 1.0])},
+        "Dense_1": {"kernel": jnp.array([[1.0], [2.0]]), "bias": jnp.array([0.5])},
+    }
+    assert jax.tree.map(jnp.shape, params.trainable) == {"params": jax.tree.map(jnp.shape, dense)}
+    # x = [0.5, -1]: h = tanh([0.5, 0]) = [0.46212, 0]; y = 0.46212 + 2 * 0 + 0.5
+    y = net.apply(NetParams(trainable={"params": dense}, fixed={}), jnp.array([[0.5, -1.0]]))
+    np.testing.assert_allclose(y, [[math.tanh(0.5) + 0.5]], rtol=1e-6)
+    # initial kernels: hidden rows orthogonal with gain sqrt(2) (a wide [3, 8] matrix),
+    # the output column with gain out_scale; biases 0
+    init = networks.tanh_mlp(3, 1, 8, 2, out_scale=0.01).init(jax.random.key(1)).trainable
+    w0, w2 = init["params"]["Dense_0"]["kernel"], init["params"]["Dense_2"]["kernel"]
+    np.testing.assert_allclose(w0 @ w0.T, 2.0 * np.eye(3), atol=1e-5)
+    np.testing.assert_allclose(np.linalg.norm(w2), 0.01, rtol=1e-5)
+    assert all(not np.any(layer["bias"]) for layer in init["params"].values())
+    with pytest.raises(ValueError, match="tanh_mlp needs depth >= 1"):
+        networks.tanh_mlp(3, 1, 8, 0, out_scale=1.0)
 
 
 def test_projection_inside_untouched_outside_onto_sphere():

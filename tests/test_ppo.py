@@ -288,19 +288,6 @@ def test_ppo_learns_the_bandit_ends_and_the_chebyshev_optimum(bandit_runs):
     assert abs(theta["linear"][1] - math.pi / 4) > 0.3
 
 
-def test_orthogonal_init_without_lapack():
-    """`ppo.orthogonal`: `W^T W = scale^2 I` (or `W W^T` for wide `W`), per key."""
-    from wcac_jax.ppo import orthogonal
-
-    for shape in [(17, 64), (64, 64), (64, 6)]:
-        w = orthogonal(2.0)(jax.random.key(3), shape)
-        assert w.shape == shape
-        gram = w.T @ w if shape[0] >= shape[1] else w @ w.T
-        np.testing.assert_allclose(gram, 4.0 * np.eye(min(shape)), atol=1e-5)
-    a, b = (orthogonal()(jax.random.key(k), (8, 8)) for k in (0, 1))
-    assert not np.allclose(a, b)
-
-
 # -- the augmented scalarization: a bandit whose [1, 0] end is a weakly Pareto flat
 
 

@@ -1,5 +1,6 @@
-"""Function approximators as `(init, apply)` pairs: the paper's ReLU network, a flax MLP,
-the Gaussian policy head, and the per-layer Frobenius-ball projection of Algorithm 2.
+"""Function approximators as `(init, apply)` pairs: the paper's ReLU network, flax MLPs
+(ReLU, and the practical preset's orthogonally initialised tanh MLP), the Gaussian and
+categorical policy heads, and the per-layer Frobenius-ball projection of Algorithm 2.
 
 Every network's parameters are a `NetParams(trainable, fixed)` pytree: only `trainable`
 is ever differentiated, updated, projected or averaged; `fixed` holds what the paper keeps
@@ -90,14 +91,32 @@ def paper_network(in_dim: int, out_dim: int, width: int, depth: int) -> Network:
 class _MLP(nn.Module):
     hidden: tuple[int, ...]
     out_dim: int
-    out_scale: float = 1.0
+    activation: Callable[[chex.Array], chex.Array]
+    hidden_init: Callable
+    out_init: Callable
 
     @nn.compact
     def __call__(self, x):
         for size in self.hidden:
-            x = nn.relu(nn.Dense(size)(x))
-        init = nn.initializers.variance_scaling(self.out_scale**2, "fan_in", "truncated_normal")
-        return nn.Dense(self.out_dim, kernel_init=init)(x)
+            x = self.activation(nn.Dense(size, kernel_init=self.hidden_init)(x))
+        return nn.Dense(self.out_dim, kernel_init=self.out_init)(x)
+
+
+def _trainable_network(module: nn.Module, in_dim: int) -> Network:
+    """A flax module as a `Network` whose parameters are all trainable (`fixed` empty)."""
+
+    def init(key: chex.PRNGKey) -> NetParams:
+        return NetParams(trainable=module.init(key, jnp.zeros((in_dim,))), fixed={})
+
+    def apply(params: NetParams, x: chex.Array) -> chex.Array:
+        return module.apply(params.trainable, x)
+
+    return Network(init, apply)
+
+
+def _check_size(name: str, width: int, depth: int) -> None:
+    if depth < 1 or width < 1:
+        raise ValueError(f"{name} needs depth >= 1 and width >= 1, got {depth=}, {width=}")
 
 
 def mlp_network(
@@ -109,17 +128,51 @@ def mlp_network(
     The output layer's initial weights are scaled by `out_scale` (policies use 0.01, as is
     common practice, so that every initial mean action lies well inside the bounds).
     """
-    if depth < 1 or width < 1:
-        raise ValueError(f"mlp_network needs depth >= 1 and width >= 1, got {depth=}, {width=}")
-    module = _MLP(hidden=(width,) * depth, out_dim=out_dim, out_scale=out_scale)
+    _check_size("mlp_network", width, depth)
+    out_init = nn.initializers.variance_scaling(out_scale**2, "fan_in", "truncated_normal")
+    module = _MLP((width,) * depth, out_dim, nn.relu, nn.initializers.lecun_normal(), out_init)
+    return _trainable_network(module, in_dim)
 
-    def init(key: chex.PRNGKey) -> NetParams:
-        return NetParams(trainable=module.init(key, jnp.zeros((in_dim,))), fixed={})
 
-    def apply(params: NetParams, x: chex.Array) -> chex.Array:
-        return module.apply(params.trainable, x)
+def orthogonal(scale: float = 1.0):
+    """An orthogonal initializer (as `flax.linen.initializers.orthogonal`) without LAPACK.
 
-    return Network(init, apply)
+    A Gaussian matrix's columns are orthonormalised by Gram-Schmidt, twice per column
+    (CGS2, orthogonal to float32 precision), in plain `jnp`; the result is Haar-distributed
+    like QR with positive `diag(R)`. Why not flax's: its QR is a LAPACK custom call that,
+    batched under the sweep's `vmap` (jaxlib 0.10's `ParallelBatchMap`), deadlocks
+    XLA's CPU thread pool now and then when two such calls run at once (measured: the
+    practical trainer's `init` for 9 preferences hung in about 1 of 4 runs, every
+    thread waiting in `QrFactorizationKernel`).
+    """
+
+    def init(key: chex.PRNGKey, shape, dtype=jnp.float32) -> chex.Array:
+        rows, cols = shape[0], math.prod(shape[1:])
+        n, k = max(rows, cols), min(rows, cols)
+        a = jax.random.normal(key, (n, k), jnp.float32)
+
+        def column(q, j):
+            v = jax.lax.dynamic_index_in_dim(a, j, axis=1, keepdims=False)
+            for _ in range(2):  # unfilled columns of q are 0 and project nothing
+                v = v - q @ (q.T @ v)
+            return jax.lax.dynamic_update_index_in_dim(q, v / jnp.linalg.norm(v), j, 1), None
+
+        q, _ = jax.lax.scan(column, jnp.zeros_like(a), jnp.arange(k))
+        q = q if rows >= cols else q.T
+        return (scale * q).reshape(shape).astype(dtype)
+
+    return init
+
+
+def tanh_mlp(in_dim: int, out_dim: int, width: int, depth: int, out_scale: float) -> Network:
+    """A fully trainable tanh MLP as deep on-policy RL uses it (the practical preset's):
+    orthogonal init (`orthogonal`), gain `sqrt(2)` on hidden layers and `out_scale` on the
+    output (0.01 for a policy, so that every initial mean action is near 0; 1 for a critic)."""
+    _check_size("tanh_mlp", width, depth)
+    module = _MLP(
+        (width,) * depth, out_dim, jnp.tanh, orthogonal(math.sqrt(2)), orthogonal(out_scale)
+    )
+    return _trainable_network(module, in_dim)
 
 
 def make_network(

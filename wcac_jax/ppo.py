@@ -32,11 +32,9 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import math
 from dataclasses import dataclass
 
 import chex
-import flax.linen as nn
 import jax
 import jax.numpy as jnp
 import optax
@@ -56,6 +54,7 @@ from wcac_jax.train import (
     policy_step,
     resolve_j_ub,
     rollout,
+    typed_key,
 )
 from wcac_jax.types import EpisodeStats
 
@@ -433,81 +432,15 @@ def minibatch_epochs(
     return jax.lax.scan(epoch, (params, opt_state), jax.random.split(key, num_epochs))
 
 
-# ----------------------------------------------------------------------------- networks
-
-
-def orthogonal(scale: float = 1.0):
-    """An orthogonal initializer (as `flax.linen.initializers.orthogonal`) without LAPACK.
-
-    A Gaussian matrix's columns are orthonormalised by Gram-Schmidt, twice per column
-    (CGS2, orthogonal to float32 precision), in plain `jnp`; the result is Haar-distributed
-    like QR with positive `diag(R)`. Why not flax's: its QR is a LAPACK custom call that,
-    batched under the sweep's `vmap` (jaxlib 0.10's `ParallelBatchMap`), deadlocks
-    XLA's CPU thread pool now and then when two such calls run at once (measured: the
-    practical trainer's `init` for 9 preferences hung in about 1 of 4 runs, every
-    thread waiting in `QrFactorizationKernel`).
-    """
-
-    def init(key: chex.PRNGKey, shape, dtype=jnp.float32) -> chex.Array:
-        rows, cols = shape[0], math.prod(shape[1:])
-        n, k = max(rows, cols), min(rows, cols)
-        a = jax.random.normal(key, (n, k), jnp.float32)
-
-        def column(q, j):
-            v = jax.lax.dynamic_index_in_dim(a, j, axis=1, keepdims=False)
-            for _ in range(2):  # unfilled columns of q are 0 and project nothing
-                v = v - q @ (q.T @ v)
-            return jax.lax.dynamic_update_index_in_dim(q, v / jnp.linalg.norm(v), j, 1), None
-
-        q, _ = jax.lax.scan(column, jnp.zeros_like(a), jnp.arange(k))
-        q = q if rows >= cols else q.T
-        return (scale * q).reshape(shape).astype(dtype)
-
-    return init
-
-
-class _TanhMLP(nn.Module):
-    hidden: tuple[int, ...]
-    out_dim: int
-    out_scale: float
-
-    @nn.compact
-    def __call__(self, x):
-        for size in self.hidden:
-            x = jnp.tanh(nn.Dense(size, kernel_init=orthogonal(math.sqrt(2)))(x))
-        return nn.Dense(self.out_dim, kernel_init=orthogonal(self.out_scale))(x)
-
-
-def tanh_mlp(in_dim: int, out_dim: int, width: int, depth: int, out_scale: float):
-    """A tanh MLP (orthogonal init, gain `sqrt(2)` on hidden layers and `out_scale` on the
-    output: 0.01 for a policy, so that every initial mean action is near 0; 1 for a
-    critic), as a `networks.Network` whose parameters are all trainable."""
-    module = _TanhMLP(hidden=(width,) * depth, out_dim=out_dim, out_scale=out_scale)
-
-    def init(key: chex.PRNGKey) -> networks.NetParams:
-        return networks.NetParams(trainable=module.init(key, jnp.zeros((in_dim,))), fixed={})
-
-    def apply(params: networks.NetParams, x: chex.Array) -> chex.Array:
-        return module.apply(params.trainable, x)
-
-    return networks.Network(init, apply)
-
-
 def make_policy(config: PPOConfig, env) -> networks.Policy:
     """A Gaussian with state-independent learned log-std (continuous actions in
     `[-1, 1]^act`), or a softmax over `env.num_actions` (discrete ones)."""
     num_actions = getattr(env, "num_actions", None)
     out = int(num_actions) if num_actions else int(env.action_size)
-    net = tanh_mlp(int(env.observation_size), out, config.width, config.depth, 0.01)
+    net = networks.tanh_mlp(int(env.observation_size), out, config.width, config.depth, 0.01)
     if num_actions:
         return networks.categorical_policy(net)
     return networks.gaussian_policy(net, out, config.log_std_init, learn_log_std=True)
-
-
-def _typed_key(key: chex.PRNGKey) -> chex.PRNGKey:
-    if jnp.issubdtype(key.dtype, jax.dtypes.prng_key):
-        return key
-    return jax.random.wrap_key_data(key)
 
 
 # ----------------------------------------------------------------------------- the program
@@ -546,7 +479,7 @@ def make_trainer(config: PPOConfig, env) -> Trainer:
     v_step = jax.vmap(wrapped.step)
 
     policy = make_policy(config, env)
-    value_net = tanh_mlp(obs_size, m, config.width, config.depth, 1.0)
+    value_net = networks.tanh_mlp(obs_size, m, config.width, config.depth, 1.0)
     optimizer = optax.chain(
         optax.clip_by_global_norm(config.max_grad_norm),
         optax.adam(learning_rate(config), eps=config.adam_eps),
@@ -565,7 +498,7 @@ def make_trainer(config: PPOConfig, env) -> Trainer:
 
     def init(key: chex.PRNGKey, pref: chex.Array) -> PPOState:
         del pref  # the initial state does not depend on the preference
-        key_actor, key_critic, key_env, key_run = jax.random.split(_typed_key(key), 4)
+        key_actor, key_critic, key_env, key_run = jax.random.split(typed_key(key), 4)
         actor_params = policy.init(key_actor)
         critic_params = value_net.init(key_critic)
         return PPOState(

@@ -129,7 +129,7 @@ def assemble(init, step, policy, value_net, preprocess, j_ub: chex.Array) -> Tra
     return Trainer(init, run, step, policy, value_net, preprocess, mean_action, j_ub)
 
 
-def _typed_key(key: chex.PRNGKey) -> chex.PRNGKey:
+def typed_key(key: chex.PRNGKey) -> chex.PRNGKey:
     """Accepts a typed key (`jax.random.key`) or raw uint32 key data (`PRNGKey`)."""
     if jnp.issubdtype(key.dtype, jax.dtypes.prng_key):
         return key
@@ -281,7 +281,7 @@ def make_trainer(config: TrainConfig, env) -> Trainer:
 
     def init(key: chex.PRNGKey, pref: chex.Array) -> TrainState:
         del pref  # the initial state does not depend on the preference
-        key = _typed_key(key)
+        key = typed_key(key)
         key_actor, key_critic, key_env, key_run = jax.random.split(key, 4)
         actor_params = policy.init(key_actor)
         env_state = v_reset(jax.random.split(key_env, n_envs))
@@ -458,7 +458,7 @@ def make_evaluate(
     m = int(env.num_objectives)
 
     def evaluate(state: TrainState, key: chex.PRNGKey):
-        env_state = jax.vmap(wrapped.reset)(jax.random.split(_typed_key(key), num_episodes))
+        env_state = jax.vmap(wrapped.reset)(jax.random.split(typed_key(key), num_episodes))
 
         def step(carry, _):
             env_state, alive, ret, disc_ret, discount, length = carry
