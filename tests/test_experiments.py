@@ -341,6 +341,7 @@ def test_named_configs_keep_the_paper_setting_apart():
             "ignores it",
         ),
         ("walker2d_front.py", ["--config", "practical", "--utopia-margin", "-1"], "got -1.0"),
+        ("walker2d_film.py", ["--run", "nowhere"], "no sweep in 'nowhere'"),
     ],
 )
 def test_walker2d_scripts_reject_bad_input(tmp_path, script, args, named):
@@ -398,6 +399,7 @@ def test_walker2d_front_tiny(tmp_path):
     for name in ("front.png", "curves.png"):
         assert (tmp_path / name).stat().st_size > 1000
         (tmp_path / name).unlink()
+    _film_of(tmp_path / "smooth_wc", tmp_path / "film")
     _run("walker2d_front.py", "--plot-only", "--out", str(tmp_path))  # redraws, no training
     for name in ("front.png", "curves.png"):
         assert (tmp_path / name).stat().st_size > 1000
@@ -418,6 +420,31 @@ def test_walker2d_front_tiny(tmp_path):
             again["directions"][direction]["policies"]
             == summary["directions"][direction]["policies"]
         )
+
+
+def _film_of(run, out):
+    """`walker2d_film.py` on a finished tiny front (MuJoCo's renderer, in a subprocess so
+    that it picks EGL before importing mujoco): every preference filmed, files whole."""
+    from PIL import Image
+
+    steps, every = 20, 5
+    proc = _run(
+        "walker2d_film.py",
+        *("--run", str(run), "--out", str(out), "--steps", str(steps)),
+        *("--every", str(every), "--columns", "3", "--size", "48"),
+    )
+    front = json.loads((run / "front.json").read_text())
+    film = json.loads((out / "film.json").read_text())
+    assert (film["physics"], film["engine"], film["steps"]) == ("gymnasium-v5", "mujoco", steps)
+    assert [p["pref"] for p in film["policies"]] == [row["pref"] for row in front["prefs"]]
+    for p in film["policies"]:
+        assert 1 <= p["length"] <= steps and (p["fell"] or p["length"] == steps)
+        assert p["speed_m_per_s"] == pytest.approx(p["distance_m"] / (p["length"] * film["dt"]))
+    assert len([line for line in proc.stdout.splitlines() if line.startswith("p = ")]) == 9
+    with Image.open(out / "film.gif") as gif:
+        assert gif.n_frames == steps // every + 1  # steps 0, 5, ..., 20
+    assert (out / "film.png").stat().st_size > 1000
+    assert sorted(os.listdir(out)) == ["film.gif", "film.json", "film.png"]  # no temporaries
 
 
 @pytest.mark.slow

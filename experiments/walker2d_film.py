@@ -1,0 +1,196 @@
+"""Films of a trained Walker2d front: every preference's deterministic policy walking (or
+standing, or falling) side by side, to see what the numbers in `front.json` mean.
+
+Reads a finished or interrupted Walker2d sweep (its last checkpoint, `load_sweep`), rolls
+out each preference's deterministic policy for `--steps` steps from one start state per
+preference (the sweep's seed; every preference its own), renders them with MuJoCo's
+renderer and writes, into `--out` (default: the run's directory):
+
+- `film.gif`: one panel per preference, all in step (every `--every`-th step, in real
+  time: `dt = 0.008 s` per step), a fallen walker held where it fell;
+- `film.png`: the same as a filmstrip, one row per preference, `--columns` moments;
+- `film.json`: per preference `p`, the steps before falling (`length`), the distance the
+  torso travelled (m) and its mean speed (m/s) over those steps.
+
+    python -m wcac_jax.sweep --n-prefs 9 --out runs/front   # the README's first command
+    python experiments/walker2d_film.py --run runs/front
+
+Needs an OpenGL platform for MuJoCo's renderer: on a machine without a display, EGL
+(`MUJOCO_GL=egl`, the default here) as on this repository's CPU machines.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+
+if not os.environ.get("DISPLAY"):  # MuJoCo reads it once, when first imported
+    os.environ.setdefault("MUJOCO_GL", "egl")
+
+import matplotlib  # noqa: E402
+
+matplotlib.use("Agg")
+
+import jax  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib import animation  # noqa: E402
+
+from wcac_jax import plot, render  # noqa: E402
+from wcac_jax.outputs import json_bytes, write_atomic  # noqa: E402
+from wcac_jax.sweep import SweepError, load_sweep, make_env  # noqa: E402
+
+
+def fail(message: str):
+    print(f"error: {message}", file=sys.stderr)
+    raise SystemExit(2)
+
+
+def positive(text: str) -> int:
+    value = int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be a positive integer, got {text}")
+    return value
+
+
+def label(pref, speed: float) -> str:
+    return "p = [" + ", ".join(f"{x:.3g}" for x in pref) + f"]  {speed:+.2f} m/s"
+
+
+def write_gif(path: str, frames: np.ndarray, labels: list[str], fps: float) -> None:
+    """`frames [P, T, H, W, 3]` as one animation of `P` panels."""
+    n, steps = frames.shape[:2]
+    cols = int(np.ceil(np.sqrt(n)))
+    rows = int(np.ceil(n / cols))
+    fig, axes = plot.plt.subplots(rows, cols, figsize=(2.4 * cols, 2.55 * rows), squeeze=False)
+    images = []
+    for i, ax in enumerate(axes.flat):
+        ax.set_axis_off()
+        if i < n:
+            images.append(ax.imshow(frames[i, 0]))
+            ax.set_title(labels[i], fontsize=8)
+    fig.tight_layout(pad=0.3)
+
+    def draw(t):
+        for i, image in enumerate(images):
+            image.set_data(frames[i, t])
+        return images
+
+    movie = animation.FuncAnimation(fig, draw, frames=steps, blit=True)
+    # about one figure pixel per frame pixel (each panel is ~2.2 inches wide)
+    dpi = frames.shape[3] / 2.2
+    _save_atomic(path, lambda tmp: movie.save(tmp, animation.PillowWriter(fps=fps), dpi=dpi))
+    plot.plt.close(fig)
+
+
+def write_strip(path: str, frames: np.ndarray, labels: list[str], times: list[float]) -> None:
+    """`frames [P, C, H, W, 3]`: one row per preference, one column per moment."""
+    n, cols = frames.shape[:2]
+    fig, axes = plot.plt.subplots(n, cols, figsize=(1.6 * cols, 1.75 * n), squeeze=False)
+    for i in range(n):
+        for j in range(cols):
+            ax = axes[i, j]
+            ax.imshow(frames[i, j])
+            ax.set_xticks([]), ax.set_yticks([])
+            if i == 0:
+                ax.set_title(f"t = {times[j]:.1f} s", fontsize=8)
+        axes[i, 0].set_ylabel(labels[i], fontsize=7)
+    fig.tight_layout(pad=0.3)
+    _save_atomic(path, lambda tmp: fig.savefig(tmp, format="png", dpi=100))
+    plot.plt.close(fig)
+
+
+def _save_atomic(path: str, save) -> None:
+    """`save(tmp)` to a temporary file beside `path`, then renamed onto it."""
+    root, suffix = os.path.splitext(path)
+    tmp = f"{root}.{os.getpid()}.tmp{suffix}"
+    try:
+        save(tmp)
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--run", required=True, help="a Walker2d sweep's output directory")
+    parser.add_argument("--out", help="directory for the films (default: --run)")
+    parser.add_argument("--steps", type=positive, default=300, help="steps rolled out")
+    parser.add_argument("--every", type=positive, default=4, help="one GIF frame per N steps")
+    parser.add_argument("--columns", type=positive, default=6, help="moments in film.png")
+    parser.add_argument("--size", type=positive, default=160, help="panel size in pixels")
+    args = parser.parse_args(argv)
+    out = args.out or args.run
+    try:
+        run = load_sweep(args.run)
+    except SweepError as err:
+        fail(str(err))
+    if run.config.env != "walker2d":
+        fail(f"--run {args.run!r} is a {run.config.env!r} sweep; films need walker2d")
+    try:
+        os.makedirs(out, exist_ok=True)
+    except OSError as err:
+        fail(f"--out {out!r} can't be created ({err.strerror})")
+    if not os.access(out, os.W_OK | os.X_OK):
+        fail(f"--out {out!r} is not writable")
+
+    env = make_env(run.config)
+    n_prefs = len(run.config.prefs)
+    keys = jax.random.split(jax.random.key(run.config.seed), n_prefs)
+    rollout = jax.jit(jax.vmap(render.make_rollout(run.trainer, env, args.steps)))
+    qpos, length, fell = (np.asarray(x) for x in rollout(run.state, keys))  # [P, T+1, nq], [P]
+    physics = env.physics
+    dt = float(env.dt)
+    rows = []
+    for i, pref in enumerate(run.config.prefs):
+        distance = float(qpos[i, length[i], 0] - qpos[i, 0, 0])
+        rows.append(
+            {
+                "pref": list(pref),
+                "length": int(length[i]),
+                "fell": bool(fell[i]),
+                "distance_m": distance,
+                "speed_m_per_s": distance / (max(int(length[i]), 1) * dt),
+            }
+        )
+    labels = [label(r["pref"], r["speed_m_per_s"]) for r in rows]
+    shown = np.arange(0, args.steps + 1, args.every)
+    moments = np.linspace(0, args.steps, args.columns).round().astype(int)
+    frames = np.stack(
+        [
+            render.render(physics, qpos[i, np.union1d(shown, moments)], args.size, args.size)
+            for i in range(n_prefs)
+        ]
+    )  # [P, frames, H, W, 3]
+    index = {t: k for k, t in enumerate(np.union1d(shown, moments))}
+    write_gif(
+        os.path.join(out, "film.gif"),
+        frames[:, [index[t] for t in shown]],
+        labels,
+        fps=1.0 / (dt * args.every),
+    )
+    write_strip(
+        os.path.join(out, "film.png"),
+        frames[:, [index[t] for t in moments]],
+        labels,
+        [t * dt for t in moments],
+    )
+    result = {
+        "run": args.run,
+        "physics": physics,
+        "engine": env.backend,
+        "steps": args.steps,
+        "dt": dt,
+        "policies": rows,
+    }
+    write_atomic(os.path.join(out, "film.json"), json_bytes(result))
+    for r in rows:
+        fell = f", fell at step {r['length']}" if r["fell"] else ""
+        print(f"p = {r['pref']}: {r['distance_m']:.2f} m, {r['speed_m_per_s']:+.2f} m/s{fell}")
+    print(f"wrote film.gif, film.png, film.json to {out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

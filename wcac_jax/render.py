@@ -1,0 +1,97 @@
+"""Pictures of trained Walker2d policies: each preference's deterministic policy rolled out
+from a start state, and MuJoCo's renderer drawing the model at the positions it reached.
+
+Two steps, so that the rollout stays a pure function of the trained state:
+
+- `make_rollout(trainer, env, steps)` -> `rollout(state, key) -> (qpos [steps + 1, nq],
+  length [], fell [])`, one preference's episode (the deterministic policy `trainer.mean_action`,
+  the raw environment without auto-reset); positions after the step the walker falls are
+  held at the fallen pose. Vmap it over the sweep's preference axis.
+- `render(physics, qpos [T, nq])` -> RGB frames `uint8 [T, height, width, 3]` on the host,
+  with a camera that follows the torso from the side.
+
+MuJoCo picks its OpenGL platform when it is first imported (`MUJOCO_GL`): on a machine
+without a display, set `MUJOCO_GL=egl` before anything imports `mujoco` (as
+`experiments/walker2d_film.py` does), or `render` raises naming the setting.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+
+import chex
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+
+def make_rollout(trainer, env, steps: int) -> Callable:
+    """`rollout(state, key) -> (qpos [steps + 1, nq] float32, length [] int32, fell [] bool)`.
+
+    `state`: ONE preference's training state (`trainer.init`'s tree, no preference
+    axis); `key`: the start state's key (`env.reset(key)`). `qpos[0]` is the start,
+    `qpos[t]` the positions after step `t` (the model's own coordinates, as its MuJoCo
+    model reads them); `length` counts the steps up to and including the one the walker
+    fell on (`steps` if it did not), `fell` whether it did, and `qpos[length:]` all equal
+    `qpos[length]`.
+    """
+
+    def rollout(state, key: chex.PRNGKey):
+        if not jnp.issubdtype(key.dtype, jax.dtypes.prng_key):
+            key = jax.random.wrap_key_data(key)
+        start = env.reset(key)
+
+        def step(carry, _):
+            env_state, alive, length, held = carry
+            env_state = env.step(env_state, trainer.mean_action(state, env_state.obs))
+            qpos = jnp.where(alive, env_state.pipeline_state.qpos, held)
+            length = length + alive.astype(jnp.int32)
+            alive = alive & (env_state.done == 0)
+            return (env_state, alive, length, qpos), qpos
+
+        q0 = start.pipeline_state.qpos
+        carry = (start, jnp.bool_(True), jnp.int32(0), q0)
+        (_, alive, length, _), qpos = jax.lax.scan(step, carry, None, length=steps)
+        return jnp.concatenate([q0[None], qpos]), length, ~alive
+
+    return rollout
+
+
+def render(physics: str, qpos: np.ndarray, width: int = 240, height: int = 240) -> np.ndarray:
+    """RGB frames `uint8 [T, height, width, 3]` of the Walker2d model `physics` at each row
+    of `qpos [T, nq]`, seen from the side by a camera that tracks the torso."""
+    import mujoco
+
+    from wcac_jax.envs.walker2d import load_mj_model
+
+    model = load_mj_model(physics)
+    qpos = np.asarray(qpos, np.float64)
+    if qpos.ndim != 2 or qpos.shape[1] != model.nq:
+        raise ValueError(f"qpos must be [T, {model.nq}], got shape {qpos.shape}")
+    data = mujoco.MjData(model)
+    camera = mujoco.MjvCamera()
+    camera.type = mujoco.mjtCamera.mjCAMERA_TRACKING
+    camera.trackbodyid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "torso")
+    camera.distance, camera.elevation, camera.azimuth = 3.0, -10.0, 90.0  # side view
+    frames = np.empty((len(qpos), height, width, 3), np.uint8)
+    try:
+        renderer = mujoco.Renderer(model, height, width)
+    except mujoco.FatalError as err:
+        gl = os.environ.get("MUJOCO_GL")
+        raise RuntimeError(
+            f"MuJoCo's renderer found no OpenGL context (MUJOCO_GL={gl!r} when mujoco was "
+            "imported; without a display set MUJOCO_GL=egl before importing it): " + str(err)
+        ) from None
+    # no reflections, shadows or sky: plainer frames, which animations compress better
+    for flag in ("mjRND_REFLECTION", "mjRND_SHADOW", "mjRND_SKYBOX"):
+        renderer.scene.flags[getattr(mujoco.mjtRndFlag, flag)] = False
+    try:
+        for t, q in enumerate(qpos):
+            data.qpos[:] = q
+            mujoco.mj_forward(model, data)
+            renderer.update_scene(data, camera=camera)
+            frames[t] = renderer.render()
+    finally:
+        renderer.close()
+    return frames
