@@ -157,13 +157,13 @@ def main(argv=None) -> int:
     labels = [label(r["pref"], r["speed_m_per_s"]) for r in rows]
     shown = np.arange(0, args.steps + 1, args.every)
     moments = np.linspace(0, args.steps, args.columns).round().astype(int)
-    frames = np.stack(
-        [
-            render.render(physics, qpos[i, np.union1d(shown, moments)], args.size, args.size)
-            for i in range(n_prefs)
-        ]
-    )  # [P, frames, H, W, 3]
-    index = {t: k for k, t in enumerate(np.union1d(shown, moments))}
+    times = np.union1d(shown, moments)
+    # every preference's frames in one call: one renderer (an OpenGL context) for all
+    frames = render.render(
+        physics, qpos[:, times].reshape(-1, qpos.shape[-1]), args.size, args.size
+    )
+    frames = frames.reshape(n_prefs, len(times), *frames.shape[1:])  # [P, frames, H, W, 3]
+    index = {t: k for k, t in enumerate(times)}
     write_gif(
         os.path.join(out, "film.gif"),
         frames[:, [index[t] for t in shown]],
