@@ -34,23 +34,12 @@ matplotlib.use("Agg")
 
 import jax  # noqa: E402
 import numpy as np  # noqa: E402
+import walker2d_common as common  # noqa: E402
 from matplotlib import animation  # noqa: E402
 
 from wcac_jax import plot, render  # noqa: E402
 from wcac_jax.outputs import json_bytes, write_atomic  # noqa: E402
 from wcac_jax.sweep import SweepError, load_sweep, make_env  # noqa: E402
-
-
-def fail(message: str):
-    print(f"error: {message}", file=sys.stderr)
-    raise SystemExit(2)
-
-
-def positive(text: str) -> int:
-    value = int(text)
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be a positive integer, got {text}")
-    return value
 
 
 def label(pref, speed: float) -> str:
@@ -116,24 +105,27 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--run", required=True, help="a Walker2d sweep's output directory")
     parser.add_argument("--out", help="directory for the films (default: --run)")
-    parser.add_argument("--steps", type=positive, default=300, help="steps rolled out")
-    parser.add_argument("--every", type=positive, default=4, help="one GIF frame per N steps")
-    parser.add_argument("--columns", type=positive, default=6, help="moments in film.png")
-    parser.add_argument("--size", type=positive, default=160, help="panel size in pixels")
+    parser.add_argument("--steps", type=int, default=300, help="steps rolled out")
+    parser.add_argument("--every", type=int, default=4, help="one GIF frame per N steps")
+    parser.add_argument("--columns", type=int, default=6, help="moments in film.png")
+    parser.add_argument("--size", type=int, default=160, help="panel size in pixels")
     args = parser.parse_args(argv)
+    for flag in ("steps", "every", "columns", "size"):
+        if getattr(args, flag) < 1:
+            common.fail(f"--{flag} must be >= 1, got {getattr(args, flag)}")
     out = args.out or args.run
     try:
         run = load_sweep(args.run)
     except SweepError as err:
-        fail(str(err))
+        common.fail(str(err))
     if run.config.env != "walker2d":
-        fail(f"--run {args.run!r} is a {run.config.env!r} sweep; films need walker2d")
+        common.fail(f"--run {args.run!r} is a {run.config.env!r} sweep; films need walker2d")
     try:
         os.makedirs(out, exist_ok=True)
     except OSError as err:
-        fail(f"--out {out!r} can't be created ({err.strerror})")
+        common.fail(f"--out {out!r} can't be created ({err.strerror})")
     if not os.access(out, os.W_OK | os.X_OK):
-        fail(f"--out {out!r} is not writable")
+        common.fail(f"--out {out!r} is not writable")
 
     env = make_env(run.config)
     n_prefs = len(run.config.prefs)

@@ -342,6 +342,7 @@ def test_named_configs_keep_the_paper_setting_apart():
         ),
         ("walker2d_front.py", ["--config", "practical", "--utopia-margin", "-1"], "got -1.0"),
         ("walker2d_film.py", ["--run", "nowhere"], "no sweep in 'nowhere'"),
+        ("walker2d_film.py", ["--run", "nowhere", "--every", "0"], "--every must be >= 1, got 0"),
     ],
 )
 def test_walker2d_scripts_reject_bad_input(tmp_path, script, args, named):
