@@ -22,8 +22,10 @@ Needs an OpenGL platform for MuJoCo's renderer: on a machine without a display, 
 from __future__ import annotations
 
 import argparse
+import io
 import os
 import sys
+import tempfile
 
 if not os.environ.get("DISPLAY"):  # MuJoCo reads it once, when first imported
     os.environ.setdefault("MUJOCO_GL", "egl")
@@ -68,7 +70,11 @@ def write_gif(path: str, frames: np.ndarray, labels: list[str], fps: float) -> N
     movie = animation.FuncAnimation(fig, draw, frames=steps, blit=True)
     # about one figure pixel per frame pixel (each panel is ~2.2 inches wide)
     dpi = frames.shape[3] / 2.2
-    _save_atomic(path, lambda tmp: movie.save(tmp, animation.PillowWriter(fps=fps), dpi=dpi))
+    with tempfile.TemporaryDirectory() as scratch:  # Pillow writes to a named file
+        gif = os.path.join(scratch, "film.gif")
+        movie.save(gif, animation.PillowWriter(fps=fps), dpi=dpi)
+        with open(gif, "rb") as f:
+            write_atomic(path, f.read())
     plot.plt.close(fig)
 
 
@@ -85,20 +91,10 @@ def write_strip(path: str, frames: np.ndarray, labels: list[str], times: list[fl
                 ax.set_title(f"t = {times[j]:.1f} s", fontsize=8)
         axes[i, 0].set_ylabel(labels[i], fontsize=7)
     fig.tight_layout(pad=0.3)
-    _save_atomic(path, lambda tmp: fig.savefig(tmp, format="png", dpi=100))
+    png = io.BytesIO()
+    fig.savefig(png, format="png", dpi=100)
+    write_atomic(path, png.getvalue())
     plot.plt.close(fig)
-
-
-def _save_atomic(path: str, save) -> None:
-    """`save(tmp)` to a temporary file beside `path`, then renamed onto it."""
-    root, suffix = os.path.splitext(path)
-    tmp = f"{root}.{os.getpid()}.tmp{suffix}"
-    try:
-        save(tmp)
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
 
 
 def main(argv=None) -> int:

@@ -25,6 +25,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from wcac_jax.train import typed_key
+
 
 def make_rollout(trainer, env, steps: int) -> Callable:
     """`rollout(state, key) -> (qpos [steps + 1, nq] float32, length [] int32, fell [] bool)`.
@@ -38,9 +40,7 @@ def make_rollout(trainer, env, steps: int) -> Callable:
     """
 
     def rollout(state, key: chex.PRNGKey):
-        if not jnp.issubdtype(key.dtype, jax.dtypes.prng_key):
-            key = jax.random.wrap_key_data(key)
-        start = env.reset(key)
+        start = env.reset(typed_key(key))
 
         def step(carry, _):
             env_state, alive, length, held = carry
