@@ -327,28 +327,47 @@ def test_named_configs_keep_the_paper_setting_apart():
 @pytest.mark.parametrize(
     ("script", "args", "named"),
     [
-        ("walker2d_front.py", ["--config", "nope"], "'nope'; valid: paper, mlp-adam"),
-        ("walker2d_front.py", ["--scale", "0"], "--scale must be > 0, got 0.0"),
-        ("walker2d_ablation.py", ["--seeds", "0"], "--seeds must be >= 1, got 0"),
-        ("walker2d_ablation.py", ["--steps-per-pref", "-5"], "got -5"),
-        ("walker2d_front.py", ["--resume"], "--resume: nothing to resume"),
-        ("walker2d_front.py", ["--j-ub", "400,x"], "--j-ub '400,x'"),
-        ("walker2d_front.py", ["--config", "practical", "--j-ub", "1e39,1"], "finite"),
-        ("walker2d_front.py", ["--utopia-margin", "0.02"], "does not apply to --config paper"),
+        (walker2d_front, ["--config", "nope"], "'nope'; valid: paper, mlp-adam"),
+        (walker2d_front, ["--scale", "0"], "--scale must be > 0, got 0.0"),
+        (walker2d_ablation, ["--seeds", "0"], "--seeds must be >= 1, got 0"),
+        (walker2d_ablation, ["--steps-per-pref", "-5"], "got -5"),
+        (walker2d_front, ["--resume"], "--resume: nothing to resume"),
+        (walker2d_front, ["--j-ub", "400,x"], "--j-ub '400,x'"),
+        (walker2d_front, ["--config", "practical", "--j-ub", "1e39,1"], "finite"),
+        (walker2d_front, ["--utopia-margin", "0.02"], "does not apply to --config paper"),
         (
-            "walker2d_front.py",
+            walker2d_front,
             ["--config", "practical", "--j-ub", "1,2", "--utopia-margin", "1"],
             "ignores it",
         ),
-        ("walker2d_front.py", ["--config", "practical", "--utopia-margin", "-1"], "got -1.0"),
-        ("walker2d_film.py", ["--run", "nowhere"], "no sweep in 'nowhere'"),
-        ("walker2d_film.py", ["--run", "nowhere", "--every", "0"], "--every must be >= 1, got 0"),
+        (walker2d_front, ["--config", "practical", "--utopia-margin", "-1"], "got -1.0"),
     ],
 )
-def test_walker2d_scripts_reject_bad_input(tmp_path, script, args, named):
+def test_walker2d_scripts_reject_bad_input(tmp_path, capsys, script, args, named):
+    out = tmp_path / "out"
+    with pytest.raises(SystemExit) as exc:
+        script.main([*args, "--out", str(out)])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert err.strip().splitlines()[-1].startswith("error:")
+    assert named in err
+    assert not out.exists()
+
+
+@pytest.mark.parametrize(
+    ("args", "named"),
+    [
+        (["--run", "nowhere"], "no sweep in 'nowhere'"),
+        (["--run", "nowhere", "--every", "0"], "--every must be >= 1, got 0"),
+    ],
+)
+def test_walker2d_film_rejects_bad_input(tmp_path, args, named):
+    """In its own process, as it is run: the script picks MuJoCo's OpenGL platform when
+    it is imported, which the test process must not inherit."""
     out = tmp_path / "out"
     proc = subprocess.run(
-        [sys.executable, os.path.join(ROOT, "experiments", script), *args, "--out", str(out)],
+        [sys.executable, os.path.join(ROOT, "experiments", "walker2d_film.py"), *args]
+        + ["--out", str(out)],
         capture_output=True,
         text=True,
         timeout=300,
