@@ -54,9 +54,8 @@ from wcac_jax.train import (
     policy_step,
     resolve_j_ub,
     rollout,
-    typed_key,
 )
-from wcac_jax.types import EpisodeStats
+from wcac_jax.types import EpisodeStats, typed_key
 
 
 @dataclass(frozen=True)

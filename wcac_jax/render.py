@@ -25,7 +25,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from wcac_jax.train import typed_key
+from wcac_jax.types import typed_key
 
 
 def make_rollout(trainer, env, steps: int) -> Callable:

@@ -46,7 +46,7 @@ from flax import struct
 from wcac_jax import actor, critic, networks, scalarize
 from wcac_jax.config import TrainConfig
 from wcac_jax.envs.wrappers import EpisodeWrapper
-from wcac_jax.types import EpisodeStats, Transition
+from wcac_jax.types import EpisodeStats, Transition, typed_key
 
 # scalarizations selectable by a traced index (`direction` argument of `train`)
 TRACED_DIRECTIONS = ("smooth_wc", "wc", "linear")
@@ -127,13 +127,6 @@ def assemble(init, step, policy, value_net, preprocess, j_ub: chex.Array) -> Tra
         return policy.to_env(policy.mode(dist))
 
     return Trainer(init, run, step, policy, value_net, preprocess, mean_action, j_ub)
-
-
-def typed_key(key: chex.PRNGKey) -> chex.PRNGKey:
-    """Accepts a typed key (`jax.random.key`) or raw uint32 key data (`PRNGKey`)."""
-    if jnp.issubdtype(key.dtype, jax.dtypes.prng_key):
-        return key
-    return jax.random.wrap_key_data(key)
 
 
 def resolve_j_ub(config: TrainConfig, env) -> tuple[float, ...]:

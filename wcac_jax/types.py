@@ -1,9 +1,18 @@
-"""Small pytree types shared by the training modules."""
+"""Small pytree types shared by the training modules, and the PRNG key type they take."""
 
 from __future__ import annotations
 
 import chex
+import jax
+import jax.numpy as jnp
 from flax import struct
+
+
+def typed_key(key: chex.PRNGKey) -> chex.PRNGKey:
+    """Accepts a typed key (`jax.random.key`) or raw uint32 key data (`PRNGKey`)."""
+    if jnp.issubdtype(key.dtype, jax.dtypes.prng_key):
+        return key
+    return jax.random.wrap_key_data(key)
 
 
 @struct.dataclass

@@ -33,12 +33,7 @@ import jax
 import jax.numpy as jnp
 from brax.envs.base import Env, State, Wrapper
 
-
-def _typed(key: jax.Array) -> jax.Array:
-    """A typed PRNG key from a typed key or raw uint32 key data."""
-    if jnp.issubdtype(key.dtype, jax.dtypes.prng_key):
-        return key
-    return jax.random.wrap_key_data(key)
+from wcac_jax.types import typed_key
 
 
 class EpisodeWrapper(Wrapper):
@@ -52,7 +47,7 @@ class EpisodeWrapper(Wrapper):
         self.episode_length = int(episode_length)
 
     def reset(self, rng: jax.Array) -> State:
-        key_env, key_next = jax.random.split(_typed(rng))
+        key_env, key_next = jax.random.split(typed_key(rng))
         state = self.env.reset(key_env)
         zero = jnp.zeros((), jnp.float32)
         info = {
