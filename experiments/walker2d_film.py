@@ -41,7 +41,7 @@ from matplotlib import animation  # noqa: E402
 
 from wcac_jax import plot, render  # noqa: E402
 from wcac_jax.outputs import json_bytes, write_atomic  # noqa: E402
-from wcac_jax.sweep import SweepError, load_sweep, make_env  # noqa: E402
+from wcac_jax.sweep import SweepError, load_sweep  # noqa: E402
 
 
 def label(pref, speed: float) -> str:
@@ -123,7 +123,7 @@ def main(argv=None) -> int:
     if not os.access(out, os.W_OK | os.X_OK):
         common.fail(f"--out {out!r} is not writable")
 
-    env = make_env(run.config)
+    env = run.env
     n_prefs = len(run.config.prefs)
     keys = jax.random.split(jax.random.key(run.config.seed), n_prefs)
     rollout = jax.jit(jax.vmap(render.make_rollout(run.trainer, env, args.steps)))

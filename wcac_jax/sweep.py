@@ -29,7 +29,7 @@ import os
 import sys
 import time
 from dataclasses import dataclass, field, replace
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import jax
 import jax.extend
@@ -318,6 +318,7 @@ class LoadedSweep(NamedTuple):
 
     Attributes:
       config: the sweep's configuration (from `config.json`).
+      env: its environment (`make_env(config)`), the one `trainer` was built for.
       trainer: the pure `init`/`step`/`run`/`mean_action` of its training setup.
       state: the last checkpointed `TrainState`, every leaf with the preference axis
         first (`[P, ...]`); `state.iteration[i]` iterations are done.
@@ -326,6 +327,7 @@ class LoadedSweep(NamedTuple):
     """
 
     config: SweepConfig
+    env: Any
     trainer: Trainer
     state: TrainState
     metrics: dict
@@ -374,7 +376,7 @@ def load_sweep(out: str) -> LoadedSweep:
     restored = checkpoint.restore(manager, template)
     state = jax.tree.map(jnp.asarray, restored["state"])
     metrics = with_env_steps(config.train_config(), restored["metrics"])
-    return LoadedSweep(config, trainer, state, metrics)
+    return LoadedSweep(config, env, trainer, state, metrics)
 
 
 def run_sweep(
