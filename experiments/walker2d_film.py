@@ -4,7 +4,8 @@ standing, or falling) side by side, to see what the numbers in `front.json` mean
 Reads a finished or interrupted Walker2d sweep (its last checkpoint, `load_sweep`), rolls
 out each preference's deterministic policy for `--steps` steps from one start state per
 preference (the sweep's seed; every preference its own), renders them with MuJoCo's
-renderer and writes, into `--out` (default: the run's directory):
+renderer and writes, into `--out` (default: the run's directory; created only once the
+frames are drawn):
 
 - `film.gif`: one panel per preference, all in step (every `--every`-th step, in real
   time: `dt = 0.008 s` per step), a fallen walker held where it fell;
@@ -97,6 +98,18 @@ def write_strip(path: str, frames: np.ndarray, labels: list[str], times: list[fl
     plot.plt.close(fig)
 
 
+def check_out(out: str) -> None:
+    """Exits (status 2) unless `out` is a writable directory or could be created as one;
+    creates nothing."""
+    path = os.path.abspath(out)
+    while not os.path.exists(path):  # the nearest existing ancestor
+        path = os.path.dirname(path)
+    if not os.path.isdir(path):
+        common.fail(f"--out {out!r} can't be created ({path!r} is not a directory)")
+    if not os.access(path, os.W_OK | os.X_OK):
+        common.fail(f"--out {out!r} can't be written ({path!r} is not writable)")
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--run", required=True, help="a Walker2d sweep's output directory")
@@ -110,18 +123,13 @@ def main(argv=None) -> int:
         if getattr(args, flag) < 1:
             common.fail(f"--{flag} must be >= 1, got {getattr(args, flag)}")
     out = args.out or args.run
+    check_out(out)
     try:
         run = load_sweep(args.run)
     except SweepError as err:
         common.fail(str(err))
     if run.config.env != "walker2d":
         common.fail(f"--run {args.run!r} is a {run.config.env!r} sweep; films need walker2d")
-    try:
-        os.makedirs(out, exist_ok=True)
-    except OSError as err:
-        common.fail(f"--out {out!r} can't be created ({err.strerror})")
-    if not os.access(out, os.W_OK | os.X_OK):
-        common.fail(f"--out {out!r} is not writable")
 
     env = run.env
     n_prefs = len(run.config.prefs)
@@ -147,10 +155,17 @@ def main(argv=None) -> int:
     moments = np.linspace(0, args.steps, args.columns).round().astype(int)
     times = np.union1d(shown, moments)
     # every preference's frames in one call: one renderer (an OpenGL context) for all
-    frames = render.render(
-        physics, qpos[:, times].reshape(-1, qpos.shape[-1]), args.size, args.size
-    )
+    try:
+        frames = render.render(
+            physics, qpos[:, times].reshape(-1, qpos.shape[-1]), args.size, args.size
+        )
+    except RuntimeError as err:
+        common.fail(str(err), status=1)
     frames = frames.reshape(n_prefs, len(times), *frames.shape[1:])  # [P, frames, H, W, 3]
+    try:  # only now: a run that could not render leaves no empty --out behind
+        os.makedirs(out, exist_ok=True)
+    except OSError as err:
+        common.fail(f"--out {out!r} can't be created ({err.strerror})")
     index = {t: k for k, t in enumerate(times)}
     write_gif(
         os.path.join(out, "film.gif"),

@@ -347,24 +347,31 @@ def test_walker2d_scripts_reject_bad_input(tmp_path, capsys, script, args, named
     out = tmp_path / "out"
     with pytest.raises(SystemExit) as exc:
         script.main([*args, "--out", str(out)])
-    assert exc.value.code == 2
-    err = capsys.readouterr().err
-    assert err.strip().splitlines()[-1].startswith("error:")
-    assert named in err
+    _assert_refused(exc.value.code, capsys.readouterr().err, named, out)
+
+
+def _assert_refused(status, stderr, named, out, expected_status=2):
+    """A refusal as the scripts make one: `expected_status`, a last stderr line `error:
+    ...` naming `named`, and nothing written at `out`."""
+    assert status == expected_status, stderr[-3000:]
+    assert stderr.strip().splitlines()[-1].startswith("error:")
+    assert named in stderr
     assert not out.exists()
 
 
 @pytest.mark.parametrize(
-    ("args", "named"),
+    ("args", "out", "named"),
     [
-        (["--run", "nowhere"], "no sweep in 'nowhere'"),
-        (["--run", "nowhere", "--every", "0"], "--every must be >= 1, got 0"),
+        (["--run", "nowhere"], "out", "no sweep in 'nowhere'"),
+        (["--run", "nowhere", "--every", "0"], "out", "--every must be >= 1, got 0"),
+        (["--run", "nowhere"], "a_file/out", "a_file' is not a directory"),
     ],
 )
-def test_walker2d_film_rejects_bad_input(tmp_path, args, named):
+def test_walker2d_film_rejects_bad_input(tmp_path, args, out, named):
     """In its own process, as it is run: the script picks MuJoCo's OpenGL platform when
     it is imported, which the test process must not inherit."""
-    out = tmp_path / "out"
+    (tmp_path / "a_file").write_text("")
+    out = tmp_path / out
     proc = subprocess.run(
         [sys.executable, os.path.join(ROOT, "experiments", "walker2d_film.py"), *args]
         + ["--out", str(out)],
@@ -372,10 +379,7 @@ def test_walker2d_film_rejects_bad_input(tmp_path, args, named):
         text=True,
         timeout=300,
     )
-    assert proc.returncode == 2
-    assert proc.stderr.strip().splitlines()[-1].startswith("error:")
-    assert named in proc.stderr
-    assert not out.exists()
+    _assert_refused(proc.returncode, proc.stderr, named, out)
 
 
 def test_ablation_grid_is_the_papers():
@@ -465,6 +469,18 @@ def _film_of(run, out):
         assert gif.n_frames == steps // every + 1  # steps 0, 5, ..., 20
     assert (out / "film.png").stat().st_size > 1000
     assert sorted(os.listdir(out)) == ["film.gif", "film.json", "film.png"]  # no temporaries
+    # without an OpenGL platform: a one-line error, and no --out left behind
+    nowhere = out.parent / "film_without_gl"
+    proc = subprocess.run(
+        [sys.executable, os.path.join(ROOT, "experiments", "walker2d_film.py")]
+        + ["--run", str(run), "--out", str(nowhere), "--steps", "2", "--size", "8"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env={**os.environ, "MUJOCO_GL": "disable"},
+    )
+    named = "error: MuJoCo's renderer found no OpenGL context (MUJOCO_GL='disable'"
+    _assert_refused(proc.returncode, proc.stderr, named, nowhere, expected_status=1)
 
 
 @pytest.mark.slow

@@ -66,3 +66,17 @@ def test_rollout_holds_the_fallen_pose_and_counts_the_steps():
 def test_render_checks_the_positions_shape():
     with pytest.raises(ValueError, match=r"qpos must be \[T, 9\], got shape \(4, 7\)"):
         render.render("gymnasium-v5", np.zeros((4, 7)))
+
+
+def test_render_says_when_there_is_no_opengl_context(monkeypatch):
+    """Whatever MuJoCo raises when it can't make a context (it depends on the platform)
+    becomes one RuntimeError naming `MUJOCO_GL`."""
+    import mujoco
+
+    def no_context(*args):
+        raise AttributeError("module 'gl_context' has no attribute 'GLContext'")
+
+    monkeypatch.setattr(mujoco, "Renderer", no_context)
+    monkeypatch.setenv("MUJOCO_GL", "disable")
+    with pytest.raises(RuntimeError, match=r"no OpenGL context \(MUJOCO_GL='disable'.*GLContext"):
+        render.render("gymnasium-v5", np.zeros((2, 9)))

@@ -60,7 +60,13 @@ def make_rollout(trainer, env, steps: int) -> Callable:
 
 def render(physics: str, qpos: np.ndarray, width: int = 240, height: int = 240) -> np.ndarray:
     """RGB frames `uint8 [T, height, width, 3]` of the Walker2d model `physics` at each row
-    of `qpos [T, nq]`, seen from the side by a camera that tracks the torso."""
+    of `qpos [T, nq]`, seen from the side by a camera that tracks the torso.
+
+    Raises:
+      ValueError: `qpos` is not `[T, nq]`.
+      RuntimeError: no OpenGL context (MuJoCo's platform is `MUJOCO_GL`, read when
+        `mujoco` is first imported).
+    """
     import mujoco
 
     from wcac_jax.envs.walker2d import load_mj_model
@@ -77,11 +83,14 @@ def render(physics: str, qpos: np.ndarray, width: int = 240, height: int = 240) 
     frames = np.empty((len(qpos), height, width, 3), np.uint8)
     try:
         renderer = mujoco.Renderer(model, height, width)
-    except mujoco.FatalError as err:
+    except Exception as err:  # which error depends on the OpenGL platform:
+        # FatalError (no context), AttributeError (MUJOCO_GL=disable, or osmesa without
+        # libOSMesa), or whatever PyOpenGL raises: all mean no OpenGL context
         gl = os.environ.get("MUJOCO_GL")
         raise RuntimeError(
             f"MuJoCo's renderer found no OpenGL context (MUJOCO_GL={gl!r} when mujoco was "
-            "imported; without a display set MUJOCO_GL=egl before importing it): " + str(err)
+            "imported; without a display set MUJOCO_GL=egl before importing it): "
+            f"{type(err).__name__}: {err}"
         ) from None
     # no reflections, shadows or sky: plainer frames, which animations compress better
     for flag in ("mjRND_REFLECTION", "mjRND_SHADOW", "mjRND_SKYBOX"):
