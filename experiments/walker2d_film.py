@@ -41,7 +41,7 @@ import walker2d_common as common  # noqa: E402
 from matplotlib import animation  # noqa: E402
 
 from wcac_jax import plot, render  # noqa: E402
-from wcac_jax.outputs import json_bytes, write_atomic  # noqa: E402
+from wcac_jax.outputs import json_bytes, unwritable_dir, write_atomic  # noqa: E402
 from wcac_jax.sweep import SweepError, load_sweep  # noqa: E402
 
 
@@ -98,18 +98,6 @@ def write_strip(path: str, frames: np.ndarray, labels: list[str], times: list[fl
     plot.plt.close(fig)
 
 
-def check_out(out: str) -> None:
-    """Exits (status 2) unless `out` is a writable directory or could be created as one;
-    creates nothing."""
-    path = os.path.abspath(out)
-    while not os.path.exists(path):  # the nearest existing ancestor
-        path = os.path.dirname(path)
-    if not os.path.isdir(path):
-        common.fail(f"--out {out!r} can't be created ({path!r} is not a directory)")
-    if not os.access(path, os.W_OK | os.X_OK):
-        common.fail(f"--out {out!r} can't be written ({path!r} is not writable)")
-
-
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--run", required=True, help="a Walker2d sweep's output directory")
@@ -123,7 +111,9 @@ def main(argv=None) -> int:
         if getattr(args, flag) < 1:
             common.fail(f"--{flag} must be >= 1, got {getattr(args, flag)}")
     out = args.out or args.run
-    check_out(out)
+    problem = unwritable_dir(out)  # checked before any work; created once frames exist
+    if problem:
+        common.fail(f"--out {out!r} can't be written ({problem})")
     try:
         run = load_sweep(args.run)
     except SweepError as err:

@@ -37,6 +37,19 @@ def write_atomic(path: str, data: bytes) -> None:
         raise
 
 
+def unwritable_dir(path: str) -> str | None:
+    """Why the directory `path` can't be written (or created, with its missing parents,
+    and then written), e.g. `"'/x' is not writable"`; `None` if it can. Creates nothing."""
+    existing = os.path.abspath(path)
+    while not os.path.exists(existing):  # the nearest existing ancestor
+        existing = os.path.dirname(existing)
+    if not os.path.isdir(existing):
+        return f"{existing!r} is not a directory"
+    if not os.access(existing, os.W_OK | os.X_OK):
+        return f"{existing!r} is not writable"
+    return None
+
+
 def json_bytes(obj) -> bytes:
     """`obj` as indented JSON (NaN allowed), newline-terminated."""
     return (json.dumps(obj, indent=2, allow_nan=True) + "\n").encode()

@@ -39,7 +39,7 @@ from jax.sharding import PartitionSpec as P
 
 from wcac_jax import checkpoint, distributed, envs, trainers
 from wcac_jax.config import TrainConfig
-from wcac_jax.outputs import json_bytes, summarize, write_atomic, write_outputs
+from wcac_jax.outputs import json_bytes, summarize, unwritable_dir, write_atomic, write_outputs
 from wcac_jax.presets import PAPER_PREFS
 from wcac_jax.train import TRACED_DIRECTIONS, Trainer, TrainState, resolve_j_ub, with_env_steps
 from wcac_jax.trainers import make_evaluate, make_trainer
@@ -238,11 +238,9 @@ def check_output_dir(out: str, config: SweepConfig, resume: bool) -> None:
         if not os.access(out, os.W_OK | os.X_OK):
             raise SweepError(f"--out {out!r} is not writable")
         return
-    parent = os.path.dirname(os.path.abspath(out))
-    while not os.path.exists(parent):
-        parent = os.path.dirname(parent)
-    if not os.path.isdir(parent) or not os.access(parent, os.W_OK | os.X_OK):
-        raise SweepError(f"--out {out!r} can't be written ({parent!r} is not a writable directory)")
+    problem = unwritable_dir(out)
+    if problem:
+        raise SweepError(f"--out {out!r} can't be written ({problem})")
 
 
 class _Progress:
