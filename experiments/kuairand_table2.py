@@ -32,6 +32,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from wcac_jax.outputs import unwritable_dir
 from wcac_jax.recsys import ncis as ncis_lib
 from wcac_jax.recsys import offline
 from wcac_jax.recsys.cli import ArgumentParser
@@ -306,11 +307,9 @@ def main(argv=None) -> int:
     try:
         if args.steps is not None:
             cfg = replace(cfg, steps=args.steps)
-        if os.path.exists(args.out) and not os.path.isdir(args.out):
-            raise ValueError(f"--out {args.out!r} exists and is not a directory")
-        parent = os.path.dirname(os.path.abspath(args.out))
-        if not os.path.isdir(parent) or not os.access(parent, os.W_OK):
-            raise ValueError(f"--out {args.out!r}: parent directory is not writable")
+        problem = unwritable_dir(args.out)
+        if problem:
+            raise ValueError(f"--out {args.out!r} can't be written: {problem}")
     except ValueError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2

@@ -30,7 +30,7 @@ METHODS = (
 def run(tmp_path_factory):
     data = str(tmp_path_factory.mktemp("kuairand"))
     synth.write(synth.SynthConfig(users=40, videos=200, rows=4000, seed=2), data)
-    out = str(tmp_path_factory.mktemp("out") / "table2")
+    out = str(tmp_path_factory.mktemp("out") / "results" / "table2")  # parents made as needed
     assert kuairand_table2.main(["--data", data, "--out", out, "--quick"]) == 0
     return data, out
 
@@ -99,3 +99,9 @@ def test_bad_input_one_line_exit_2_nothing_written(tmp_path, capsys, run):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "video_features_basic_27k.csv" in err[0] and "music_type" in err[0]
     assert not out.exists()
+    a_file = tmp_path / "a_file"
+    a_file.write_text("")
+    assert kuairand_table2.main(["--data", data_dir, "--out", str(a_file / "out"), "--quick"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"{str(a_file)!r} is not a directory" in err[0]
+    assert a_file.read_text() == ""

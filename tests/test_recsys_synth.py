@@ -168,6 +168,16 @@ def test_cli_bad_input_one_line_exit_2_nothing_written(tmp_path, capsys, args, w
 
 
 def test_cli_writes_a_small_set(tmp_path):
-    out = tmp_path / "d"
+    out = tmp_path / "new" / "d"  # missing parents are made, as the sweep's --out
     assert synth.main(["--out", str(out), "--users", "10", "--videos", "20", "--rows", "200"]) == 0
     assert len(pd.read_csv(out / synth.FILES["standard"][0])) == 200
+
+
+def test_cli_refuses_an_out_it_cannot_make(tmp_path, capsys):
+    a_file = tmp_path / "a_file"
+    a_file.write_text("")
+    for out in (a_file, a_file / "d"):
+        assert synth.main(["--out", str(out), "--users", "10"]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and f"{str(a_file)!r} is not a directory" in err[0]
+    assert a_file.read_text() == ""

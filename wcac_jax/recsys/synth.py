@@ -41,6 +41,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from wcac_jax.outputs import unwritable_dir
 from wcac_jax.recsys.cli import ArgumentParser
 
 # KuaiRand-Pure standard logs (RECSYS.md §1); watch time: the protocol's test mean.
@@ -628,11 +629,9 @@ def main(argv=None) -> int:
             cfg = SynthConfig(PAPER_SCALE.users, PAPER_SCALE.videos, PAPER_SCALE.rows, args.seed)
         else:
             cfg = SynthConfig(args.users, args.videos, args.rows, args.seed)
-        if os.path.exists(args.out) and not os.path.isdir(args.out):
-            raise ValueError(f"--out {args.out!r} exists and is not a directory")
-        parent = os.path.dirname(os.path.abspath(args.out))
-        if not os.access(parent if not os.path.isdir(args.out) else args.out, os.W_OK):
-            raise ValueError(f"--out {args.out!r} is not writable")
+        problem = unwritable_dir(args.out)
+        if problem:
+            raise ValueError(f"--out {args.out!r} can't be written: {problem}")
     except ValueError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
