@@ -20,6 +20,7 @@ import numpy as np
 
 from wcac_jax import cli, envs, pareto, presets
 from wcac_jax.config import TrainConfig
+from wcac_jax.outputs import library_versions
 from wcac_jax.sweep import (
     SweepConfig,
     SweepError,
@@ -293,4 +294,5 @@ def machine() -> dict:
         "device_kind": jax.devices()[0].device_kind,
         "cpu_count": os.cpu_count(),
         "processor": platform.processor() or platform.machine(),
+        "versions": library_versions(),
     }

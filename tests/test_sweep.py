@@ -7,6 +7,8 @@ import signal
 import subprocess
 import sys
 
+import jax
+import mujoco
 import numpy as np
 import pytest
 from sweep_args import TINY_BANDIT
@@ -87,6 +89,8 @@ def test_outputs_exist_parse_and_agree(tiny_run):
     front, curves = _load(tiny_run)
     assert len(front["prefs"]) == 4
     assert front["objective_names"] == ["one_minus_sin", "one_minus_cos"]
+    assert front["versions"]["jax"] == jax.__version__
+    assert front["versions"]["mujoco"] == mujoco.__version__
     np.testing.assert_allclose([r["pref"] for r in front["prefs"]], curves["prefs"])
     t = front["config"]["train"]["num_iterations"]
     assert curves["train/weights"].shape == (4, t, 2)

@@ -7,9 +7,11 @@ interrupted run never leaves a half-written result.
 from __future__ import annotations
 
 import csv
+import importlib.metadata
 import io
 import json
 import os
+import platform
 import tempfile
 
 import jax
@@ -48,6 +50,23 @@ def unwritable_dir(path: str) -> str | None:
     if not os.access(existing, os.W_OK | os.X_OK):
         return f"{existing!r} is not writable"
     return None
+
+
+# The packages whose numerics a result depends on (MuJoCo's patch releases can change a
+# Walker2d front: rounding differences grow over a run).
+VERSIONED = ("jax", "jaxlib", "mujoco", "mujoco-mjx", "brax", "flax", "optax", "numpy", "wcac_jax")
+
+
+def library_versions() -> dict:
+    """`{"python": "3.11.7", "jax": "0.10.2", ...}`: what produced a result (`None` for a
+    package that is not installed)."""
+    versions = {"python": platform.python_version()}
+    for name in VERSIONED:
+        try:
+            versions[name] = importlib.metadata.version(name)
+        except importlib.metadata.PackageNotFoundError:
+            versions[name] = None
+    return versions
 
 
 def json_bytes(obj) -> bytes:
@@ -121,6 +140,7 @@ def summarize(config, env, prefs, j_ub, hv_ref, metrics, evaluation, timing) -> 
         # steps of this process only, so a resumed run reports its own part
         "env_steps_per_s": timing["steps_this_run"] / max(timing["train_s"], 1e-9),
         "devices": [str(d) for d in jax.devices()],
+        "versions": library_versions(),
         "config": config.to_dict(),
     }
 
