@@ -152,6 +152,14 @@ def sweep(config: SweepConfig, out: str, chunks: int, resume: bool = False) -> d
         fail(err, 3)
 
 
+def sweep_config(**fields) -> SweepConfig:
+    """`SweepConfig(**fields)`, or a one-line exit (status 2) naming the bad value."""
+    try:
+        return SweepConfig(**fields)
+    except SweepError as err:
+        fail(err)
+
+
 def falls_per_episode(mean_length: float, episode_length: int, episodes: int) -> float | None:
     """The fraction of `episodes` evaluated episodes that ended by a fall, when their mean
     length determines it, else `None`.

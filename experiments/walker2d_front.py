@@ -15,6 +15,8 @@ order?); wall and compile seconds; the machine.
     python experiments/walker2d_front.py --config mlp-adam     # a named departure
     python experiments/walker2d_front.py --config practical --out runs/walker2d_practical
     python experiments/walker2d_front.py --config practical --anneal-lr --out runs/annealed
+    python experiments/walker2d_front.py --config practical --select-last 5 \
+        --select-every 20480 --out runs/chosen    # best of each preference's last 5 policies
 
 `--scale` multiplies the paper's 1,000,000 env steps per preference. See
 `walker2d_common.py` for the named configurations; the sweep CLI's training flags
@@ -38,7 +40,7 @@ import numpy as np  # noqa: E402
 import walker2d_common as common  # noqa: E402
 
 from wcac_jax import cli, pareto, plot  # noqa: E402
-from wcac_jax.sweep import PAPER_PREFS, SweepConfig  # noqa: E402
+from wcac_jax.sweep import PAPER_PREFS  # noqa: E402
 
 HV_REF_RULE = (
     "hypervolume of the undiscounted evaluated returns; reference point per objective a "
@@ -89,6 +91,9 @@ def direction_summary(front: dict) -> dict:
         "lambda": [row["lambda"] for row in front["prefs"]],
         "env_steps_per_s": front["env_steps_per_s"],
         "compile_s": front["compile_s"],
+        # with --select-last > 1: the iteration of each reported policy, the candidates'
+        # evaluated returns and the env steps their evaluation took (`wcac_jax.selection`)
+        **({"selection": front["selection"]} if "selection" in front else {}),
     }
 
 
@@ -145,6 +150,7 @@ def main(argv=None) -> int:
     # the sweep CLI's training-config flags (--width, --depth, --j-ub, --utopia-margin,
     # --learning-rate, ...): each changes the named --config (recorded in summary.json)
     cli.add_config_flags(p, skip=("envs_per_pref", "scalarization"))
+    cli.add_selection_flags(p)  # wcac_jax.selection
     p.add_argument(
         "--resummarize",
         action="store_true",
@@ -187,7 +193,7 @@ def main(argv=None) -> int:
         "directions": {},
     }
     for direction in args.directions:
-        config = SweepConfig(
+        config = common.sweep_config(
             prefs=PAPER_PREFS,
             env="walker2d",
             env_options={"physics": args.physics, "engine": args.engine},
@@ -195,6 +201,8 @@ def main(argv=None) -> int:
             steps_per_pref=steps,
             seed=args.seed,
             eval_episodes=args.eval_episodes,
+            select_last=args.select_last,
+            select_every=args.select_every,
         )
         run_dir = os.path.join(args.out, direction)
         print(f"[walker2d_front] {direction}: 9 preferences x {steps:,} env steps", flush=True)

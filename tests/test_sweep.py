@@ -389,11 +389,12 @@ def test_chunk_padding_runs_no_iterations():
 
     trainer = Trainer(None, None, step, None, None, None, None, None)
     n_iters, chunk_len = 5, 3  # the second chunk runs 2 iterations and pads 1
-    chunk = jax.jit(jax.vmap(sweep.make_chunk(trainer, n_iters, chunk_len), axis_name=PREF_AXIS))
+    chunk = jax.jit(jax.vmap(sweep.make_chunk(trainer, chunk_len), axis_name=PREF_AXIS))
     state = State(jnp.zeros(2, jnp.int32), jnp.zeros(2))
     prefs = jnp.array([[1.0, 0.0], [0.5, 0.5]])
-    state, first = chunk(state, prefs)
-    state, second = chunk(state, prefs)
+    stop = jnp.full(2, n_iters, jnp.int32)
+    state, first = chunk(state, stop, prefs)
+    state, second = chunk(state, stop, prefs)
     jax.effects_barrier()
     np.testing.assert_array_equal(state.iteration, [5, 5])
     np.testing.assert_allclose(state.total, [5.0, 2.5])

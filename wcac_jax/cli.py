@@ -233,6 +233,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--eval-episodes", type=int, default=8, help="evaluation episodes per preference (8)"
     )
+    add_selection_flags(p)
     p.add_argument("--seed", type=int, default=0, help="random seed (0)")
     p.add_argument("--out", default=None, help="output directory (default: a new runs/<time>)")
     p.add_argument("--resume", action="store_true", help="continue the sweep in --out")
@@ -317,6 +318,25 @@ def config_from_args(args) -> SweepConfig:
         seed=args.seed,
         eval_episodes=args.eval_episodes,
         hv_ref=None if args.hv_ref is None else _parse_floats(args.hv_ref, "--hv-ref"),
+        select_last=args.select_last,
+        select_every=args.select_every,
+    )
+
+
+def add_selection_flags(parser) -> None:
+    """`--select-last K --select-every STEPS` (`wcac_jax.selection`), on `parser`."""
+    parser.add_argument(
+        "--select-last",
+        type=int,
+        default=1,
+        help="report each preference's best of its last K policies, by weighted Chebyshev "
+        "on their own evaluation episodes (1: the final policy)",
+    )
+    parser.add_argument(
+        "--select-every",
+        type=int,
+        default=0,
+        help="env steps between those K policies (needed with --select-last > 1)",
     )
 
 

@@ -37,7 +37,7 @@ import jax.numpy as jnp
 import numpy as np
 from jax.sharding import PartitionSpec as P
 
-from wcac_jax import checkpoint, distributed, envs, trainers
+from wcac_jax import checkpoint, distributed, envs, selection, trainers
 from wcac_jax.config import TrainConfig
 from wcac_jax.outputs import json_bytes, summarize, unwritable_dir, write_atomic, write_outputs
 from wcac_jax.presets import PAPER_PREFS
@@ -76,6 +76,10 @@ class SweepConfig:
         JAX has; `run_sweep` records the count it used). Results are bit-identical for
         the same config, device count included, and any chunking; across device counts
         they differ by rounding (XLA compiles different per-device batch shapes).
+      select_last: each preference reports the best of its last `select_last` policies
+        (`wcac_jax.selection`; 1: the final policy, no choice).
+      select_every: environment steps between those candidates (rounded up to whole
+        iterations; needed when `select_last > 1`).
     """
 
     prefs: tuple[tuple[float, ...], ...]
@@ -87,9 +91,11 @@ class SweepConfig:
     eval_episodes: int = 8
     hv_ref: tuple[float, ...] | None = None
     device_count: int | None = None
+    select_last: int = 1
+    select_every: int = 0
 
     def __post_init__(self):
-        for name in ("steps_per_pref", "eval_episodes"):
+        for name in ("steps_per_pref", "eval_episodes", "select_last"):
             value = getattr(self, name)
             if not isinstance(value, int | np.integer) or isinstance(value, bool) or value < 1:
                 raise SweepError(f"{name} must be a positive integer, got {value!r}")
@@ -109,11 +115,24 @@ class SweepConfig:
             if not all(math.isfinite(v) for v in hv_ref):
                 raise SweepError(f"hv_ref must be finite, got {list(hv_ref)}")
             object.__setattr__(self, "hv_ref", hv_ref)
+        every = self.select_every
+        if not isinstance(every, int | np.integer) or isinstance(every, bool) or every < 0:
+            raise SweepError(f"select_every must be a non-negative integer, got {every!r}")
+        try:
+            self.candidate_iterations  # noqa: B018 (validates)
+        except ValueError as err:
+            raise SweepError(str(err)) from None
 
     @property
     def num_iterations(self) -> int:
         """Outer iterations `T` per preference."""
         return max(1, math.ceil(self.steps_per_pref / self.train.env_steps_per_iteration))
+
+    @property
+    def candidate_iterations(self) -> tuple[int, ...]:
+        """The iterations whose policies `wcac_jax.selection` chooses among."""
+        every = math.ceil(self.select_every / self.train.env_steps_per_iteration)
+        return selection.candidate_iterations(self.num_iterations, self.select_last, every)
 
     def train_config(self) -> trainers.AnyConfig:
         return self.train.replace(num_iterations=self.num_iterations)
@@ -129,6 +148,8 @@ class SweepConfig:
             "eval_episodes": self.eval_episodes,
             "hv_ref": None if self.hv_ref is None else list(self.hv_ref),
             "device_count": self.device_count,
+            "select_last": self.select_last,
+            "select_every": self.select_every,
         }
 
     @classmethod
@@ -144,6 +165,8 @@ class SweepConfig:
             eval_episodes=int(d["eval_episodes"]),
             hv_ref=None if d["hv_ref"] is None else tuple(d["hv_ref"]),
             device_count=d.get("device_count"),
+            select_last=int(d.get("select_last", 1)),
+            select_every=int(d.get("select_every", 0)),
         )
 
 
@@ -222,6 +245,9 @@ def check_output_dir(out: str, config: SweepConfig, resume: bool) -> None:
             new.pop("device_count", None)
         elif new.get("device_count") is None:  # `None`: every device, as `run_sweep` fills in
             new["device_count"] = jax.device_count()
+        for k, default in (("select_last", 1), ("select_every", 0)):  # before selection
+            if k not in saved and new.get(k) == default:
+                new.pop(k)
         differ = sorted(k for k in set(saved) | set(new) if saved.get(k) != new.get(k))
         if differ:
             details = ", ".join(f"{k} (saved {saved.get(k)!r}, now {new.get(k)!r})" for k in differ)
@@ -275,22 +301,23 @@ class _Progress:
             self.bar.close()
 
 
-def make_chunk(trainer: Trainer, n_iters: int, chunk_len: int):
-    """`chunk(state, pref[, direction]) -> (state, metrics [chunk_len, ...])`: `chunk_len`
-    iterations of `trainer.step` (given the optional traced index `direction` into
-    `TRACED_DIRECTIONS`), to be called under `jax.vmap(..., axis_name=PREF_AXIS)`.
+def make_chunk(trainer: Trainer, chunk_len: int):
+    """`chunk(state, stop, pref[, direction]) -> (state, metrics [chunk_len, ...])`:
+    `chunk_len` iterations of `trainer.step` (given the optional traced index `direction`
+    into `TRACED_DIRECTIONS`), to be called under `jax.vmap(..., axis_name=PREF_AXIS)`.
 
-    Iterations at or past `n_iters` (the last chunk's padding when `chunk_len` does not
-    divide `n_iters`) leave the state as it is and give zero metrics, and cost nothing:
-    every preference is at the same iteration, so the predicate is reduced over the
-    preference axis to ONE scalar and `cond` runs one branch. (A per-preference predicate
-    would be batched, and `vmap` turns a batched `cond` into a `select` that runs both
-    branches: the padding was trained in full and thrown away.)
+    Iterations at or past `stop` (a traced int32, the same for every preference: the
+    sweep's last iteration, or the next one whose policy `wcac_jax.selection` keeps) leave
+    the state as it is and give zero metrics, and cost nothing: every preference is at
+    the same iteration, so the predicate is reduced over the preference axis to ONE
+    scalar and `cond` runs one branch. (A per-preference predicate would be batched, and
+    `vmap` turns a batched `cond` into a `select` that runs both branches: the padding
+    was trained in full and thrown away.)
     """
 
-    def chunk(state, pref, *direction):
+    def chunk(state, stop, pref, *direction):
         def body(state, _):
-            active = jax.lax.pmin(state.iteration, PREF_AXIS) < n_iters
+            active = jax.lax.pmin(state.iteration - stop, PREF_AXIS) < 0
             # the step traced once (slow for MJX): `cond` replays its jaxpr, and a skipped
             # iteration gives zeros of the shapes that trace found
             jaxpr, shapes = jax.make_jaxpr(
@@ -322,6 +349,9 @@ class LoadedSweep(NamedTuple):
         first (`[P, ...]`); `state.iteration[i]` iterations are done.
       metrics: per-iteration metrics `[P, T, ...]` (zeros past `state.iteration`), with
         `train/env_steps` (int64) counted on the host from `train/iteration`.
+      chosen: with `config.select_last > 1` and the sweep finished, each preference's
+        reported policy (`wcac_jax.selection`, leaves `[P, ...]`), the one `front.json`
+        evaluated; else `None` (the reported policy is `state`'s).
     """
 
     config: SweepConfig
@@ -329,6 +359,7 @@ class LoadedSweep(NamedTuple):
     trainer: Trainer
     state: TrainState
     metrics: dict
+    chosen: TrainState | None = None
 
 
 def load_sweep(out: str) -> LoadedSweep:
@@ -371,10 +402,20 @@ def load_sweep(out: str) -> LoadedSweep:
             k: np.zeros((n_prefs, n_iters, *s.shape[1:]), s.dtype) for k, s in shapes.items()
         },
     }
+    pool = None
+    if config.select_last > 1:
+        evaluate = make_evaluate(config.train_config(), env, config.eval_episodes)
+        found = jax.eval_shape(jax.vmap(evaluate), state, keys)
+        pool = selection.Pool(config.candidate_iterations, template["state"], found)
+        template["selection"] = pool.tree
     restored = checkpoint.restore(manager, template)
     state = jax.tree.map(jnp.asarray, restored["state"])
     metrics = with_env_steps(config.train_config(), restored["metrics"])
-    return LoadedSweep(config, env, trainer, state, metrics)
+    chosen = None
+    if pool is not None and int(restored["state"].iteration[0]) >= n_iters:
+        pool.tree = restored["selection"]
+        chosen = jax.tree.map(jnp.asarray, pool.choose(np.asarray(prefs))[3])
+    return LoadedSweep(config, env, trainer, state, metrics, chosen)
 
 
 def run_sweep(
@@ -436,6 +477,8 @@ def run_sweep(
         jnp.minimum(jnp.arange(n_prefs + n_pad), n_prefs - 1)
     )
     eval_keys = jax.vmap(lambda k: jax.random.fold_in(k, 1 << 30))(keys)
+    # the candidates' evaluation episodes (`select_last > 1`): not the final evaluation's
+    select_keys = jax.vmap(lambda k: jax.random.fold_in(k, (1 << 30) + 1))(keys)
     mesh = jax.make_mesh((n_dev,), (DEVICE_AXIS,), axis_types=(jax.sharding.AxisType.Auto,))
     sharded = jax.sharding.NamedSharding(mesh, P(DEVICE_AXIS))
     # the scalarization as a traced index (mgda has none): a configuration's sweeps in
@@ -446,8 +489,9 @@ def run_sweep(
         index = TRACED_DIRECTIONS.index(train_cfg.scalarization)
         per_pref.append(np.full(n_prefs + n_pad, index, np.int32))
     # host values, the same on every process, laid out over every process's devices
-    keys_dev, eval_keys_dev, *chunk_args = distributed.to_global(
-        (jax.random.key_data(keys), jax.random.key_data(eval_keys), *per_pref), sharded
+    keys_dev, eval_keys_dev, select_keys_dev, *chunk_args = distributed.to_global(
+        tuple(jax.random.key_data(k) for k in (keys, eval_keys, select_keys)) + (*per_pref,),
+        sharded,
     )
     prefs_dev = chunk_args[0]
     writer = distributed.is_writer()
@@ -456,7 +500,7 @@ def run_sweep(
 
     trainer = make_trainer(train_cfg, env)
     chunk_len = math.ceil(n_iters / chunks)
-    chunk = make_chunk(trainer, n_iters, chunk_len)
+    chunk = make_chunk(trainer, chunk_len)
 
     # Every leaf of the state and metrics carries the preference axis first; each device
     # runs the vmapped program on its own preferences (`shard_map`), so host callbacks
@@ -474,6 +518,14 @@ def run_sweep(
         per_device(jax.vmap(lambda k, p: trainer.init(jax.random.wrap_key_data(k), p)))
     )
     chunk_fn = jax.jit(per_device(jax.vmap(chunk, axis_name=PREF_AXIS)), donate_argnums=0)
+    evaluate_one = make_evaluate(train_cfg, env, config.eval_episodes)
+    evaluate = jax.jit(
+        per_device(jax.vmap(lambda s, k: evaluate_one(s, jax.random.wrap_key_data(k))))
+    )
+
+    def stop_at(iteration: int):  # `make_chunk`'s `stop`, on every preference
+        return distributed.to_global(np.full(n_prefs + n_pad, iteration, np.int32), sharded)
+
     state = init_fn(keys_dev, prefs_dev)
     if progress is not False and writer:
         slow = env.backend == "mjx" and jax.default_backend() == "cpu"
@@ -484,7 +536,7 @@ def run_sweep(
             flush=True,
         )
     t0 = time.perf_counter()
-    lowered = chunk_fn.lower(state, *chunk_args)  # traces the training step
+    lowered = chunk_fn.lower(state, stop_at(n_iters), *chunk_args)  # traces the step
     lower_s = time.perf_counter() - t0
     # per-iteration metrics, shaped as the program returns them (`[P, chunk_len, ...]`)
     template = lowered.out_info[1]
@@ -499,6 +551,13 @@ def run_sweep(
             f"machine has {_host_memory_bytes() / 2**30:,.1f} GiB"
         )
     metrics = {k: np.zeros((n_prefs, n_iters, *s.shape[2:]), s.dtype) for k, s in template.items()}
+    pool = None  # the policies `wcac_jax.selection` chooses among
+    if config.select_last > 1:
+        pool = selection.Pool(
+            config.candidate_iterations,
+            jax.tree.map(lambda x: np.zeros(x.shape, x.dtype), state),
+            jax.eval_shape(evaluate, state, eval_keys_dev),
+        )
 
     manager = None
     if out is not None and writer:  # only process 0 touches `out`
@@ -510,6 +569,8 @@ def run_sweep(
         # process 0 reads the checkpoint; the others receive it (no shared file system)
         host = {"state": jax.tree.map(lambda x: np.zeros(x.shape, x.dtype), state)}
         host["metrics"] = metrics
+        if pool is not None:
+            host["selection"] = pool.tree
         found = manager is not None and manager.latest_step() is not None
         if found:
             host = checkpoint.restore(manager, host)
@@ -517,6 +578,8 @@ def run_sweep(
             host = distributed.broadcast(host)
             state = distributed.to_global(host["state"], sharded)
             metrics = {k: np.array(v) for k, v in host["metrics"].items()}  # writable
+            if pool is not None:
+                pool.tree = jax.tree.map(np.array, host["selection"])
 
     done_iters = int(np.asarray(state.iteration.addressable_shards[0].data)[0])
     t0 = time.perf_counter()
@@ -532,11 +595,13 @@ def run_sweep(
             if stop_after_chunks is not None and chunks_run >= stop_after_chunks:
                 return {"interrupted": True, "iterations_done": done_iters}
             t0 = time.perf_counter()
-            state, chunk_metrics = chunk_exec(state, *chunk_args)
+            hi = min(
+                done_iters + chunk_len, pool.next_stop(done_iters, n_iters) if pool else n_iters
+            )
+            state, chunk_metrics = chunk_exec(state, stop_at(hi), *chunk_args)
             chunk_metrics = distributed.to_host(chunk_metrics)
             dt = time.perf_counter() - t0
             train_s += dt
-            hi = min(done_iters + chunk_len, n_iters)
             chunk_steps = (hi - done_iters) * steps_per_iter * n_prefs
             steps_this_run += chunk_steps
             for k, v in chunk_metrics.items():
@@ -544,18 +609,25 @@ def run_sweep(
             _check_finite(metrics, done_iters, hi, prefs, manager)
             done_iters = hi
             chunks_run += 1
+            if pool is not None and done_iters in pool.iterations:
+                found = distributed.to_host(evaluate(state, select_keys_dev))
+                pool.add(done_iters, distributed.to_host(state), found)
             if out is not None:
                 host_state = distributed.to_host(state)  # every process takes part
                 if manager is not None:
-                    checkpoint.save(manager, done_iters, {"state": host_state, "metrics": metrics})
+                    saved = {"state": host_state, "metrics": metrics}
+                    if pool is not None:
+                        saved["selection"] = pool.tree
+                    checkpoint.save(manager, done_iters, saved)
             bar.update(done_iters * steps_per_iter * n_prefs, dt, chunk_steps)
     finally:
         bar.close()
 
-    evaluate_one = make_evaluate(train_cfg, env, config.eval_episodes)
-    evaluate = jax.jit(
-        per_device(jax.vmap(lambda s, k: evaluate_one(s, jax.random.wrap_key_data(k))))
-    )
+    chosen = None
+    if pool is not None:  # each preference's reported policy, on fresh episodes
+        index, z, regrets, picked = pool.choose(prefs_pad)
+        chosen = pool.summary(index, z, regrets, n_prefs, config.eval_episodes)
+        state = distributed.to_global(picked, sharded)
     evaluation = distributed.to_host(evaluate(state, eval_keys_dev))
     wall = time.perf_counter() - wall_start
 
@@ -567,6 +639,8 @@ def run_sweep(
     }
     metrics = with_env_steps(train_cfg, metrics)  # int64, counted on the host
     front = summarize(config, env, prefs, j_ub, hv_ref, metrics, evaluation, timing)
+    if chosen is not None:
+        front["selection"] = chosen
     if out is not None and writer:
         write_outputs(out, front, metrics, prefs)
     return front

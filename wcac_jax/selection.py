@@ -1,0 +1,182 @@
+"""Each preference's reported policy chosen among its last few, by weighted Chebyshev.
+
+A sweep reports, per preference, the policy it ends with. On-policy training oscillates,
+and a Walker2d policy that ends a run falling in one evaluation episode in eight has often
+had a sibling a few iterations earlier that stood. With `select_last = K > 1` the sweep
+keeps the policies at the `K` iterations
+
+    T - (K - 1 - j) * every,   j = 0 .. K-1      (the last is the final policy)
+
+evaluates each on the same `eval_episodes` start states per preference (keys distinct
+from the final evaluation's), and reports for preference `p` the candidate with the least
+weighted-Chebyshev regret of its evaluated undiscounted returns `J` (`[m]`),
+
+    regret(J; p, z) = max_i p_i (z_i - J_i),
+
+against one utopia point `z` for the whole sweep, estimated from every candidate of every
+preference by `wcac_jax.utopia`'s rule: `z_i = max J_i + margin * max(spread_i,
+min_spread)` with `spread_i = max J_i - min J_i` over all candidates and preferences.
+Ties go to the later candidate. The front is then evaluated afresh (`front.json`), on
+episodes the choice was not made on. Training is untouched: the choice changes only which
+of a preference's own policies is reported, at `K * eval_episodes` evaluation episodes
+per preference (the sweep records their env steps).
+
+The candidate iterations are fixed by the configuration (not by the chunking), so a sweep
+chooses the same policies however it is split into chunks or resumed.
+
+`regret`, `utopia_point` and `choose` are pure jnp functions (jit/vmap/grad); `Pool`
+holds the candidates on the host between chunks.
+"""
+
+from __future__ import annotations
+
+import chex
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+# `utopia_point`'s margin and spread floor: those of the practical preset's own estimate
+# (`PPOConfig.utopia_margin`, `utopia_min_spread`)
+MARGIN = 0.1
+MIN_SPREAD = 1.0
+
+
+def candidate_iterations(num_iterations: int, last: int, every: int) -> tuple[int, ...]:
+    """The iterations (1-based counts of iterations done) whose policies are candidates.
+
+    Args:
+      num_iterations: `T`, the sweep's iterations per preference.
+      last: `K >= 1` candidates (1: the final policy only, no choice).
+      every: iterations between candidates (`>= 1` when `K > 1`).
+
+    Raises:
+      ValueError: `K < 1`, `every < 1` with `K > 1`, or a candidate before iteration 1.
+    """
+    if last < 1:
+        raise ValueError(f"select_last must be >= 1, got {last}")
+    if last > 1 and every < 1:
+        raise ValueError(f"select_every must be >= 1 iteration with select_last {last}")
+    first = num_iterations - (last - 1) * every
+    if first < 1:
+        raise ValueError(
+            f"select_last {last} candidates {every} iterations apart need more than "
+            f"{(last - 1) * every} iterations; the sweep has {num_iterations}"
+        )
+    return tuple(first + j * every for j in range(last))
+
+
+def regret(returns: chex.Array, pref: chex.Array, z: chex.Array) -> chex.Array:
+    """`max_i p_i (z_i - J_i)`: the weighted-Chebyshev regret of returns `[..., m]` for
+    preference `pref` `[m]` against the utopia point `z` `[m]`; shape `[...]`."""
+    return jnp.max(pref * (z - returns), axis=-1)
+
+
+def utopia_point(
+    returns: chex.Array, margin: float = MARGIN, min_spread: float = MIN_SPREAD
+) -> chex.Array:
+    """`[m]`: `max J_i + margin * max(max J_i - min J_i, min_spread)` over every leading
+    axis of `returns` `[..., m]` (all candidates of all preferences)."""
+    flat = returns.reshape((-1, returns.shape[-1]))
+    hi, lo = jnp.max(flat, axis=0), jnp.min(flat, axis=0)
+    return hi + margin * jnp.maximum(hi - lo, min_spread)
+
+
+def choose(
+    returns: chex.Array,
+    prefs: chex.Array,
+    margin: float = MARGIN,
+    min_spread: float = MIN_SPREAD,
+) -> tuple[chex.Array, chex.Array, chex.Array]:
+    """Each preference's candidate of least regret.
+
+    Args:
+      returns: `[K, P, m]` evaluated returns of candidate `k` of preference `p`.
+      prefs: `[P, m]` preferences.
+
+    Returns:
+      `(index [P], z [m], regrets [K, P])`: the chosen candidate per preference (the
+      latest among ties), the utopia point, and every candidate's regret.
+    """
+    chex.assert_rank(returns, 3)
+    z = utopia_point(returns, margin, min_spread)
+    regrets = jax.vmap(jax.vmap(regret, in_axes=(0, 0, None)), in_axes=(0, None, None))(
+        returns, prefs, z
+    )
+    k = returns.shape[0]
+    index = k - 1 - jnp.argmin(regrets[::-1], axis=0)  # argmin's first = the latest
+    return index, z, regrets
+
+
+def take(stacked, index):
+    """The pytree `stacked` (leaves `[K, P, ...]`) at candidate `index[p]` for each `p`:
+    leaves `[P, ...]`."""
+    index = np.asarray(index)
+    rows = np.arange(index.shape[0])
+    return jax.tree.map(lambda x: np.asarray(x)[index, rows], stacked)
+
+
+class Pool:
+    """The candidates of a sweep, on the host: every candidate's state and evaluation,
+    stacked on a leading candidate axis (`[K, P, ...]`, `P` the preference rows the
+    sweep runs, padding included).
+
+    Attributes:
+      iterations: the candidate iterations (`candidate_iterations`).
+      tree: `{"states", "eval/return", "eval/discounted_return", "eval/length"}`, the
+        checkpointed part (`states`: the state's leaves, a list: some state pytrees,
+        such as Brax's `UInt64`, turn numpy leaves back into jax arrays when rebuilt);
+        slot `k` is filled once `iterations[k]` is done.
+    """
+
+    def __init__(self, iterations: tuple[int, ...], state_template, eval_template):
+        self.iterations = tuple(iterations)
+        k = len(self.iterations)
+
+        def stack(x):  # `x`: an array or a `jax.ShapeDtypeStruct`
+            return np.zeros((k, *x.shape), x.dtype)
+
+        leaves, self.treedef = jax.tree.flatten(state_template)
+        self.tree = {"states": [stack(x) for x in leaves]}
+        self.tree.update({name: stack(v) for name, v in eval_template.items()})
+
+    def next_stop(self, done: int, num_iterations: int) -> int:
+        """The first candidate iteration after `done`, else `num_iterations`."""
+        return next((t for t in self.iterations if t > done), num_iterations)
+
+    def add(self, iteration: int, state, evaluation) -> None:
+        """Stores the host `state` and `evaluation` of candidate `iteration`."""
+        k = self.iterations.index(iteration)
+
+        for slot, x in zip(self.tree["states"], jax.tree.leaves(state), strict=True):
+            slot[k] = np.asarray(x)
+        for name, v in evaluation.items():
+            self.tree[name][k] = np.asarray(v)
+
+    def choose(self, prefs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
+        """`(index [P], z [m], regrets [K, P], state)`: `choose` on the stored returns,
+        and the chosen state (leaves `[P, ...]`) of every row of `prefs` `[P, m]`."""
+        index, z, regrets = choose(jnp.asarray(self.tree["eval/return"]), jnp.asarray(prefs))
+        index = np.asarray(index)
+        state = self.treedef.unflatten(take(self.tree["states"], index))
+        return index, np.asarray(z), np.asarray(regrets), state
+
+    def summary(
+        self, index: np.ndarray, z: np.ndarray, regrets: np.ndarray, n: int, episodes: int
+    ) -> dict:
+        """What `front.json` records of the choice (`selection`), for the first `n` rows;
+        `episodes` evaluation episodes per candidate."""
+        length = np.asarray(self.tree["eval/length"])[:, :n]
+        return {
+            "rule": "least max_i p_i (z_i - J_i) over the candidates' evaluated returns J",
+            "candidate_iterations": list(self.iterations),
+            "utopia": z.tolist(),
+            "margin": MARGIN,
+            "min_spread": MIN_SPREAD,
+            "chosen_iteration": [self.iterations[int(k)] for k in index[:n]],
+            "candidate_return": np.asarray(self.tree["eval/return"])[:, :n].tolist(),
+            "candidate_length": length.tolist(),
+            "regret": regrets[:, :n].tolist(),
+            # the env steps the candidates' evaluation took, per preference (the episodes
+            # run to a fall or the time limit)
+            "env_steps_per_pref": np.rint(episodes * length.sum(axis=0)).astype(int).tolist(),
+        }
