@@ -1,7 +1,8 @@
 """Films of a trained Walker2d front: every preference's deterministic policy walking (or
 standing, or falling) side by side, to see what the numbers in `front.json` mean.
 
-Reads a finished or interrupted Walker2d sweep (its last checkpoint, `load_sweep`), rolls
+Reads a finished or interrupted Walker2d sweep (its last checkpoint, `load_sweep`; a
+sweep that chose among its last policies, `--select-last`, its chosen ones), rolls
 out each preference's deterministic policy for `--steps` steps from one start state per
 preference (the sweep's seed; every preference its own), renders them with MuJoCo's
 renderer and writes, into `--out` (default: the run's directory; created only once the
@@ -125,7 +126,9 @@ def main(argv=None) -> int:
     n_prefs = len(run.config.prefs)
     keys = jax.random.split(jax.random.key(run.config.seed), n_prefs)
     rollout = jax.jit(jax.vmap(render.make_rollout(run.trainer, env, args.steps)))
-    qpos, length, fell = (np.asarray(x) for x in rollout(run.state, keys))  # [P, T+1, nq], [P]
+    # the policies the front reports: with --select-last, each preference's chosen one
+    policies = run.state if run.chosen is None else run.chosen
+    qpos, length, fell = (np.asarray(x) for x in rollout(policies, keys))  # [P, T+1, nq], [P]
     physics = env.physics
     dt = float(env.dt)
     rows = []

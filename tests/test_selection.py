@@ -71,7 +71,7 @@ def test_choose_by_hand():
 
 def test_bad_selection_config_is_a_sweep_error():
     config = cli.config_from_args(cli.build_parser().parse_args([*TINY_BANDIT, "--n-prefs", "2"]))
-    with pytest.raises(sweep.SweepError, match="select_every must be >= 1 iteration"):
+    with pytest.raises(sweep.SweepError, match="select_last 2 needs select_every >= 1"):
         sweep.SweepConfig(prefs=config.prefs, env=config.env, train=config.train, select_last=2)
     with pytest.raises(sweep.SweepError, match="select_every must be a non-negative integer"):
         sweep.SweepConfig(prefs=config.prefs, select_last=2, select_every=-5)

@@ -267,6 +267,11 @@ BAD = [
     (["--actor-lr", "inf"], "actor_lr must be finite in float32 .*got inf"),
     (["--critic-lr", "nan"], "critic_lr must be > 0, got nan"),
     (["--j-ub", "1e39,1"], r"j_ub must be finite in float32 .*got \[1e\+39, 1.0\]"),
+    (["--select-last", "0"], "select_last must be a positive integer, got 0"),
+    (["--select-last", "3"], "select_last 3 needs select_every >= 1 .*got 0"),
+    (["--select-last", "2", "--select-every", "-1"], "select_every must be a non-negative .*-1"),
+    # 1200 env steps are 25 iterations of 48: 2 candidates 30 iterations apart don't fit
+    (["--select-last", "2", "--select-every", "1440"], "need more than 30 .* the sweep has 25"),
 ]
 
 

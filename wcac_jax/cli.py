@@ -409,6 +409,11 @@ def main(argv=None, *, every_core: bool = False) -> int:
             f"{front['hypervolume']:.6g}, {front['env_steps_per_s']:,.0f} env-steps/s, "
             f"{front['wall_s']:.0f} s"
         )
+        if "selection" in front:
+            chosen = front["selection"]["chosen_iteration"]
+            print(
+                f"chosen policies (iteration per preference, of {config.num_iterations}): {chosen}"
+            )
     outside = front["outside_hv_ref"]
     if outside:
         print(

@@ -118,6 +118,11 @@ class SweepConfig:
         every = self.select_every
         if not isinstance(every, int | np.integer) or isinstance(every, bool) or every < 0:
             raise SweepError(f"select_every must be a non-negative integer, got {every!r}")
+        if self.select_last > 1 and every < 1:
+            raise SweepError(
+                f"select_last {self.select_last} needs select_every >= 1 (env steps between "
+                f"the candidates), got {every}"
+            )
         try:
             self.candidate_iterations  # noqa: B018 (validates)
         except ValueError as err:
