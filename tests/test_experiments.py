@@ -231,12 +231,26 @@ def test_falls_per_episode_from_lengths():
     assert walker2d_common.falls_per_episode(500.0, 500, 1) is None
 
 
-# every committed Walker2d front (the directories `walker2d_front.py` wrote)
-WALKER2D_FRONTS = sorted(
-    name
-    for name in os.listdir(os.path.join(ROOT, "experiments", "results"))
-    if name.startswith("walker2d_front")
-)
+def _walker2d_fronts(results: str) -> list[str]:
+    """The directories under `results` that `walker2d_front.py` wrote (a `summary.json`):
+    `walker2d_front*`, or one level below it (an experiment's seeds, `.../seedS`)."""
+    found = []
+    for name in os.listdir(results):
+        if not name.startswith("walker2d_front"):
+            continue
+        if os.path.isfile(os.path.join(results, name, "summary.json")):
+            found.append(name)
+        else:
+            found += [
+                f"{name}/{sub}"
+                for sub in os.listdir(os.path.join(results, name))
+                if os.path.isfile(os.path.join(results, name, sub, "summary.json"))
+            ]
+    return sorted(found)
+
+
+# every committed Walker2d front
+WALKER2D_FRONTS = _walker2d_fronts(os.path.join(ROOT, "experiments", "results"))
 
 
 def test_the_readme_fronts_are_among_those_checked():

@@ -126,6 +126,8 @@ def test_the_choice_is_the_least_recorded_regret(chosen_run):
         curves = {k: a[k] for k in a.files}
     for p, (row, base) in enumerate(zip(front["prefs"], plain["prefs"], strict=True)):
         assert row["j_hat"] == base["j_hat"] and row["lambda"] == base["lambda"]
+        assert sel["final_return"][p] == base["return"], p  # the front without the choice
+        assert sel["final_length"][p] == base["episode_length"], p
         if sel["chosen_iteration"][p] == 25:
             assert row["return"] == base["return"], p
     assert curves["train/weights"].shape[1] == 25

@@ -161,10 +161,18 @@ class Pool:
         return index, np.asarray(z), np.asarray(regrets), state
 
     def summary(
-        self, index: np.ndarray, z: np.ndarray, regrets: np.ndarray, n: int, episodes: int
+        self,
+        index: np.ndarray,
+        z: np.ndarray,
+        regrets: np.ndarray,
+        n: int,
+        episodes: int,
+        final: dict,
     ) -> dict:
         """What `front.json` records of the choice (`selection`), for the first `n` rows;
-        `episodes` evaluation episodes per candidate."""
+        `episodes` evaluation episodes per candidate; `final`: the final policies'
+        evaluation on the reported episodes (`eval/return`, `eval/length`), the front the
+        sweep reports without the choice."""
         length = np.asarray(self.tree["eval/length"])[:, :n]
         return {
             "rule": "least max_i p_i (z_i - J_i) over the candidates' evaluated returns J",
@@ -179,4 +187,8 @@ class Pool:
             # the env steps the candidates' evaluation took, per preference (the episodes
             # run to a fall or the time limit)
             "env_steps_per_pref": np.rint(episodes * length.sum(axis=0)).astype(int).tolist(),
+            # the final policies on the reported evaluation's episodes: the same training
+            # without the choice, paired with `front.json`'s rows
+            "final_return": np.asarray(final["eval/return"])[:n].tolist(),
+            "final_length": np.asarray(final["eval/length"])[:n].tolist(),
         }

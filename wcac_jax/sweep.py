@@ -631,7 +631,8 @@ def run_sweep(
     chosen = None
     if pool is not None:  # each preference's reported policy, on fresh episodes
         index, z, regrets, picked = pool.choose(prefs_pad)
-        chosen = pool.summary(index, z, regrets, n_prefs, config.eval_episodes)
+        final = distributed.to_host(evaluate(state, eval_keys_dev))  # what no choice gives
+        chosen = pool.summary(index, z, regrets, n_prefs, config.eval_episodes, final)
         state = distributed.to_global(picked, sharded)
     evaluation = distributed.to_host(evaluate(state, eval_keys_dev))
     wall = time.perf_counter() - wall_start
