@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from sweep_args import TINY_BANDIT
 
-from wcac_jax import cli, selection, sweep
+from wcac_jax import cli, scalarize, selection, sweep
 
 
 def test_candidate_iterations():
@@ -30,7 +30,9 @@ def test_regret_by_hand():
     # p = (0.25, 0.75), z = (10, 4): J = (6, 3) -> max(0.25 * 4, 0.75 * 1) = 1.0
     #                                J = (9, 1) -> max(0.25 * 1, 0.75 * 3) = 2.25
     returns = jnp.array([[6.0, 3.0], [9.0, 1.0]])
-    got = selection.regret(returns, jnp.array([0.25, 0.75]), jnp.array([10.0, 4.0]))
+    # the regret `selection.choose` takes from `scalarize.wc`
+    regret = jax.vmap(scalarize.wc, in_axes=(0, None, None))
+    got = regret(returns, jnp.array([0.25, 0.75]), jnp.array([10.0, 4.0]))
     np.testing.assert_allclose(got, [1.0, 2.25])
 
 

@@ -11,10 +11,10 @@ evaluates each on the same `eval_episodes` start states per preference (keys dis
 from the final evaluation's), and reports for preference `p` the candidate with the least
 weighted-Chebyshev regret of its evaluated undiscounted returns `J` (`[m]`),
 
-    regret(J; p, z) = max_i p_i (z_i - J_i),
+    scalarize.wc(J, p, z) = max_i p_i (z_i - J_i),
 
 against one utopia point `z` for the whole sweep, estimated from every candidate of every
-preference by `wcac_jax.utopia`'s rule: `z_i = max J_i + margin * max(spread_i,
+preference by `wcac_jax.utopia`'s rule (`utopia.point`): `z_i = max J_i + margin * max(spread_i,
 min_spread)` with `spread_i = max J_i - min J_i` over all candidates and preferences.
 Ties go to the later candidate. The front is then evaluated afresh (`front.json`), on
 episodes the choice was not made on. Training is untouched: the choice changes only which
@@ -24,7 +24,7 @@ per preference (the sweep records their env steps).
 The candidate iterations are fixed by the configuration (not by the chunking), so a sweep
 chooses the same policies however it is split into chunks or resumed.
 
-`regret`, `utopia_point` and `choose` are pure jnp functions (jit/vmap/grad); `Pool`
+`utopia_point` and `choose` are pure jnp functions (jit/vmap/grad); `Pool`
 holds the candidates on the host between chunks.
 """
 
@@ -34,6 +34,8 @@ import chex
 import jax
 import jax.numpy as jnp
 import numpy as np
+
+from wcac_jax import scalarize, utopia
 
 # `utopia_point`'s margin and spread floor: those of the practical preset's own estimate
 # (`PPOConfig.utopia_margin`, `utopia_min_spread`)
@@ -65,12 +67,6 @@ def candidate_iterations(num_iterations: int, last: int, every: int) -> tuple[in
     return tuple(first + j * every for j in range(last))
 
 
-def regret(returns: chex.Array, pref: chex.Array, z: chex.Array) -> chex.Array:
-    """`max_i p_i (z_i - J_i)`: the weighted-Chebyshev regret of returns `[..., m]` for
-    preference `pref` `[m]` against the utopia point `z` `[m]`; shape `[...]`."""
-    return jnp.max(pref * (z - returns), axis=-1)
-
-
 def utopia_point(
     returns: chex.Array, margin: float = MARGIN, min_spread: float = MIN_SPREAD
 ) -> chex.Array:
@@ -78,7 +74,7 @@ def utopia_point(
     axis of `returns` `[..., m]` (all candidates of all preferences)."""
     flat = returns.reshape((-1, returns.shape[-1]))
     hi, lo = jnp.max(flat, axis=0), jnp.min(flat, axis=0)
-    return hi + margin * jnp.maximum(hi - lo, min_spread)
+    return utopia.point(hi, lo, margin=margin, min_spread=min_spread)
 
 
 def choose(
@@ -99,7 +95,8 @@ def choose(
     """
     chex.assert_rank(returns, 3)
     z = utopia_point(returns, margin, min_spread)
-    regrets = jax.vmap(jax.vmap(regret, in_axes=(0, 0, None)), in_axes=(0, None, None))(
+    # `scalarize.wc`: max_i p_i (z_i - J_i), per candidate and preference
+    regrets = jax.vmap(jax.vmap(scalarize.wc, in_axes=(0, 0, None)), in_axes=(0, None, None))(
         returns, prefs, z
     )
     k = returns.shape[0]

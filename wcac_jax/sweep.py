@@ -614,16 +614,17 @@ def run_sweep(
             _check_finite(metrics, done_iters, hi, prefs, manager)
             done_iters = hi
             chunks_run += 1
-            if pool is not None and done_iters in pool.iterations:
-                found = distributed.to_host(evaluate(state, select_keys_dev))
-                pool.add(done_iters, distributed.to_host(state), found)
-            if out is not None:
+            candidate = pool is not None and done_iters in pool.iterations
+            if out is not None or candidate:
                 host_state = distributed.to_host(state)  # every process takes part
-                if manager is not None:
-                    saved = {"state": host_state, "metrics": metrics}
-                    if pool is not None:
-                        saved["selection"] = pool.tree
-                    checkpoint.save(manager, done_iters, saved)
+            if candidate:
+                found = distributed.to_host(evaluate(state, select_keys_dev))
+                pool.add(done_iters, host_state, found)
+            if manager is not None:  # process 0 of a sweep with `out`
+                saved = {"state": host_state, "metrics": metrics}
+                if pool is not None:
+                    saved["selection"] = pool.tree
+                checkpoint.save(manager, done_iters, saved)
             bar.update(done_iters * steps_per_iter * n_prefs, dt, chunk_steps)
     finally:
         bar.close()

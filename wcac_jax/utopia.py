@@ -76,8 +76,14 @@ def estimate(
     hi = jax.lax.pmax(j_hat, axes)
     lo = jax.lax.pmin(j_hat, axes)
     best = jnp.maximum(state.best, hi)
-    z = best + margin * jnp.maximum(best - lo, min_spread)
-    return UtopiaState(best=best), z
+    return UtopiaState(best=best), point(best, lo, margin=margin, min_spread=min_spread)
+
+
+def point(best: chex.Array, lo: chex.Array, *, margin: float, min_spread: float) -> chex.Array:
+    """`z = best + margin * max(best - lo, min_spread)` (`[m]`): the utopia point above the
+    best values `best`, given the least ones `lo` (the rule `estimate` applies; also
+    `wcac_jax.selection`'s)."""
+    return best + margin * jnp.maximum(best - lo, min_spread)
 
 
 def _is_bound(name: str) -> bool:
