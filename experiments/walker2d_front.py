@@ -15,8 +15,13 @@ order?); wall and compile seconds; the machine.
     python experiments/walker2d_front.py --config mlp-adam     # a named departure
     python experiments/walker2d_front.py --config practical --out runs/walker2d_practical
     python experiments/walker2d_front.py --config practical --anneal-lr --out runs/annealed
-    python experiments/walker2d_front.py --config practical --select-last 5 \
-        --select-every 20480 --out runs/chosen    # best of each preference's last 5 policies
+    python experiments/walker2d_front.py --config practical --select-last 1 \
+        --out runs/final    # report the final policies instead
+
+With `--config practical`, each preference reports its best of its last 5 policies,
+20,480 env steps apart, as the sweep CLI's Walker2d default does (`wcac_jax.selection`;
+the final policy when `--scale` leaves no room for them); `--select-last 1` reports
+the final policies, as the committed `walker2d_front_practical*` results did.
 
 `--scale` multiplies the paper's 1,000,000 env steps per preference. See
 `walker2d_common.py` for the named configurations; the sweep CLI's training flags
@@ -39,8 +44,8 @@ matplotlib.use("Agg")
 import numpy as np  # noqa: E402
 import walker2d_common as common  # noqa: E402
 
-from wcac_jax import cli, pareto, plot  # noqa: E402
-from wcac_jax.sweep import PAPER_PREFS  # noqa: E402
+from wcac_jax import cli, pareto, plot, presets  # noqa: E402
+from wcac_jax.sweep import PAPER_PREFS, SweepError  # noqa: E402
 
 HV_REF_RULE = (
     "hypervolume of the undiscounted evaluated returns; reference point per objective a "
@@ -175,6 +180,27 @@ def main(argv=None) -> int:
 
     base = common.config_with_flags(args.config, args, num_envs=args.envs_per_pref)
     steps = common.steps_per_pref(args.scale, args.steps_per_pref)
+    # --config practical: the sweep CLI's Walker2d default choice of each preference's
+    # reported policy among its last ones (`presets.Defaults.selection`), unless a flag
+    # sets it; the other configurations report the final policies
+    selection = presets.env_defaults("walker2d").selection if args.config == "practical" else (1, 0)
+    configs = {}  # every direction's, validated before anything is written
+    for direction in args.directions:
+        config = common.sweep_config(
+            prefs=PAPER_PREFS,
+            env="walker2d",
+            env_options={"physics": args.physics, "engine": args.engine},
+            train=base.replace(scalarization=direction),
+            steps_per_pref=steps,
+            seed=args.seed,
+            eval_episodes=args.eval_episodes,
+        )
+        try:
+            configs[direction], note = cli.apply_selection_flags(args, config, selection)
+        except SweepError as err:
+            common.fail(err)
+    if note is not None:
+        print(f"[walker2d_front] note: {note}", flush=True)
     common.make_out(args.out, args.resume)
 
     summary = {
@@ -192,18 +218,7 @@ def main(argv=None) -> int:
         "resumed": args.resume,
         "directions": {},
     }
-    for direction in args.directions:
-        config = common.sweep_config(
-            prefs=PAPER_PREFS,
-            env="walker2d",
-            env_options={"physics": args.physics, "engine": args.engine},
-            train=base.replace(scalarization=direction),
-            steps_per_pref=steps,
-            seed=args.seed,
-            eval_episodes=args.eval_episodes,
-            select_last=args.select_last,
-            select_every=args.select_every,
-        )
+    for direction, config in configs.items():
         run_dir = os.path.join(args.out, direction)
         print(f"[walker2d_front] {direction}: 9 preferences x {steps:,} env steps", flush=True)
         t0 = time.perf_counter()

@@ -355,6 +355,13 @@ def test_named_configs_keep_the_paper_setting_apart():
             "ignores it",
         ),
         (walker2d_front, ["--config", "practical", "--utopia-margin", "-1"], "got -1.0"),
+        (walker2d_front, ["--select-last", "0"], "select_last must be a positive integer"),
+        # the practical default's 5 candidates 20,480 env steps apart, asked for by a flag
+        (
+            walker2d_front,
+            ["--config", "practical", "--select-last", "5", "--scale", "0.05"],
+            "need more than 40",
+        ),
     ],
 )
 def test_walker2d_scripts_reject_bad_input(tmp_path, capsys, script, args, named):

@@ -49,6 +49,33 @@ def test_environment_defaults_without_flags():
     assert bandit.num_iterations == 600
 
 
+def test_walker2d_default_chooses_among_the_last_policies_when_they_fit(capsys):
+    walker = _config("--env", "walker2d")
+    assert (walker.select_last, walker.select_every) == (5, 20_480)
+    # 10 iterations of 2,048 env steps apart: iterations 449, 459, ..., 489 of 489
+    assert walker.candidate_iterations == (449, 459, 469, 479, 489)
+    assert capsys.readouterr().err == ""
+    # a flag sets the choice; the other keeps the default's value
+    assert _config("--select-last", "1").select_last == 1
+    three = _config("--select-last", "3")
+    assert (three.select_last, three.select_every) == (3, 20_480)
+    assert _config("--select-every", "40960").candidate_iterations[0] == 409
+    # the same configuration by name chooses too; another preset reports the final policy
+    assert _config("--preset", "practical").select_last == 5
+    assert _config("--preset", "paper", "--env", "walker2d").select_last == 1
+    assert _config("--env", "concave_bandit").select_last == 1
+    # 5 candidates 10 iterations apart need 41 iterations: 40 of 2,048 env steps report
+    # the final policies, and say so; explicitly asked-for candidates that don't fit fail
+    small = _config("--steps-per-pref", str(40 * 2048))
+    assert (small.select_last, small.select_every) == (1, 0)
+    assert "leave no room" in capsys.readouterr().err
+    assert _config("--steps-per-pref", str(41 * 2048)).candidate_iterations[0] == 1
+    with pytest.raises(sweep.SweepError, match="need more than 40 iterations"):
+        _config("--steps-per-pref", str(40 * 2048), "--select-last", "5")
+    _config("--steps-per-pref", str(40 * 2048), "--quiet")
+    assert capsys.readouterr().err == ""
+
+
 def test_paper_preset_gives_the_papers_recipe_and_preferences_on_any_env():
     for env in ("walker2d", "concave_bandit"):
         config = _config("--env", env, "--preset", "paper")

@@ -162,7 +162,14 @@ def _defaults_table() -> str:
         d = presets.env_defaults(name)
         text = (
             f"{name}: {d.preset} ({trainers.kind(d.config)} update), "
-            f"{d.steps_per_pref:,} env steps per preference; {d.note}"
+            f"{d.steps_per_pref:,} env steps per preference"
+            + (
+                f", each preference's best of its last {d.selection[0]} policies "
+                f"{d.selection[1]:,} env steps apart"
+                if d.selection[0] > 1
+                else ""
+            )
+            + f"; {d.note}"
         )
         lines.append(textwrap.fill(text, 79, initial_indent="  ", subsequent_indent="    "))
     return "\n".join(lines)
@@ -309,7 +316,7 @@ def config_from_args(args) -> SweepConfig:
     if args.engine is not None:
         env_options["engine"] = args.engine
     steps = defaults.steps_per_pref if args.steps_per_pref is None else args.steps_per_pref
-    return SweepConfig(
+    config = SweepConfig(
         prefs=prefs,
         env=args.env,
         env_options=env_options,
@@ -318,9 +325,55 @@ def config_from_args(args) -> SweepConfig:
         seed=args.seed,
         eval_episodes=args.eval_episodes,
         hv_ref=None if args.hv_ref is None else _parse_floats(args.hv_ref, "--hv-ref"),
-        select_last=args.select_last,
-        select_every=args.select_every,
     )
+    # the environment's choice among each preference's last policies goes with its own
+    # configuration (not another preset's), unless a flag sets it
+    own = args.preset is None or args.preset == defaults.preset
+    default = defaults.selection if own else (1, 0)
+    config, note = apply_selection_flags(args, config, default)
+    if note is not None and not args.quiet:
+        print(f"note: {note}", file=sys.stderr, flush=True)
+    return config
+
+
+def apply_selection_flags(
+    args, config: SweepConfig, default: tuple[int, int] = (1, 0)
+) -> tuple[SweepConfig, str | None]:
+    """`config` with `--select-last` and `--select-every` (`add_selection_flags`) applied
+    over `default` = `(select_last, select_every)` (e.g. an environment's,
+    `presets.Defaults.selection`). With neither flag given, `default` applies when the
+    budget leaves room for its candidates, and otherwise the final policies are reported
+    and the second value says so (`with_selection`).
+
+    Raises:
+      SweepError: a flag's bad value, or candidates the flags ask for that do not fit.
+    """
+    if args.select_last is None and args.select_every is None:
+        return with_selection(config, default)
+    changes = {
+        "select_last": default[0] if args.select_last is None else args.select_last,
+        "select_every": default[1] if args.select_every is None else args.select_every,
+    }
+    return dataclasses.replace(config, **changes), None
+
+
+def with_selection(
+    config: SweepConfig, selection: tuple[int, int]
+) -> tuple[SweepConfig, str | None]:
+    """`config` reporting each preference's best of its last policies as `selection` =
+    `(select_last, select_every)` asks (an environment's default, `presets.Defaults`);
+    or, when its budget leaves no room for those candidates, `config` as it is (final
+    policies) and a line saying so."""
+    last, every = selection
+    try:
+        return dataclasses.replace(config, select_last=last, select_every=every), None
+    except SweepError:  # the candidates do not fit the budget
+        return config, (
+            f"{config.steps_per_pref:,} env steps per preference leave no room for the "
+            f"default choice among each preference's last {last} policies {every:,} env "
+            "steps apart; reporting the final policies (--select-last, --select-every to "
+            "choose)"
+        )
 
 
 def add_selection_flags(parser) -> None:
@@ -328,15 +381,17 @@ def add_selection_flags(parser) -> None:
     parser.add_argument(
         "--select-last",
         type=int,
-        default=1,
+        default=None,
         help="report each preference's best of its last K policies, by weighted Chebyshev "
-        "on their own evaluation episodes (1: the final policy)",
+        "on their own evaluation episodes (1: the final policy; default: the "
+        "environment's, below, when the budget leaves room for them, else 1)",
     )
     parser.add_argument(
         "--select-every",
         type=int,
-        default=0,
-        help="env steps between those K policies (needed with --select-last > 1)",
+        default=None,
+        help="env steps between those K policies (needed with --select-last > 1; "
+        "default: the environment's)",
     )
 
 
