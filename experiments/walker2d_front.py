@@ -180,10 +180,10 @@ def main(argv=None) -> int:
 
     base = common.config_with_flags(args.config, args, num_envs=args.envs_per_pref)
     steps = common.steps_per_pref(args.scale, args.steps_per_pref)
-    # --config practical: the sweep CLI's Walker2d default choice of each preference's
-    # reported policy among its last ones (`presets.Defaults.selection`), unless a flag
-    # sets it; the other configurations report the final policies
-    selection = presets.env_defaults("walker2d").selection if args.config == "practical" else (1, 0)
+    # --config practical (Walker2d's default configuration): the sweep CLI's choice of
+    # each preference's reported policy among its last ones, unless a flag sets it; the
+    # other configurations report the final policies
+    selection = presets.env_defaults("walker2d").selection_for(args.config)
     configs = {}  # every direction's, validated before anything is written
     for direction in args.directions:
         config = common.sweep_config(

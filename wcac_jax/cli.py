@@ -326,11 +326,7 @@ def config_from_args(args) -> SweepConfig:
         eval_episodes=args.eval_episodes,
         hv_ref=None if args.hv_ref is None else _parse_floats(args.hv_ref, "--hv-ref"),
     )
-    # the environment's choice among each preference's last policies goes with its own
-    # configuration (not another preset's), unless a flag sets it
-    own = args.preset is None or args.preset == defaults.preset
-    default = defaults.selection if own else (1, 0)
-    config, note = apply_selection_flags(args, config, default)
+    config, note = apply_selection_flags(args, config, defaults.selection_for(args.preset))
     if note is not None and not args.quiet:
         print(f"note: {note}", file=sys.stderr, flush=True)
     return config

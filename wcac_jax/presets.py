@@ -81,6 +81,12 @@ class Defaults:
     env_options: tuple[tuple[str, str], ...] = ()
     selection: tuple[int, int] = (1, 0)
 
+    def selection_for(self, preset: str | None) -> tuple[int, int]:
+        """`selection` for a run of the named `preset` (`None`: this default's): the
+        choice goes with this default's own configuration, not another preset's, which
+        reports its final policies (`(1, 0)`)."""
+        return self.selection if preset in (None, self.preset) else (1, 0)
+
 
 # The concave bandit's exploration settings (experiments/pareto_exploration.py): a fixed
 # small policy noise (with a learned std the front of stochastic policies is the convex
