@@ -254,7 +254,7 @@ WALKER2D_FRONTS = _walker2d_fronts(os.path.join(ROOT, "experiments", "results"))
 
 
 def test_the_readme_fronts_are_among_those_checked():
-    for name in ("walker2d_front_1M", "walker2d_front_practical_v5_e5x16"):
+    for name in ("walker2d_front_paper_warm_brax_1M", "walker2d_front_practical_v5_e5x16/seed0"):
         assert name in WALKER2D_FRONTS
 
 
