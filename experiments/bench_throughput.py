@@ -21,7 +21,8 @@ with the paper's networks), and writes all rows to one JSON.
     python experiments/bench_throughput.py                  # default sweep size
     python experiments/bench_throughput.py --quick          # < 5 minutes on a 2-core CPU
     python experiments/bench_throughput.py --engine mujoco --physics gymnasium-v5
-    python experiments/bench_throughput.py --grid --out experiments/results/bench_engines_cpu.json
+    python experiments/bench_throughput.py --grid --iterations 4 \
+        --out experiments/results/bench_paper_engine_grid.json
     python experiments/bench_throughput.py --prefs 9 --envs-per-pref 1024   # on a GPU
 """
 

@@ -139,7 +139,7 @@ def main(argv=None) -> int:
     parser.add_argument("--every", type=int, default=10, help="iterations between measurements")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--quick", action="store_true", help="a tiny run for tests")
-    parser.add_argument("--out", default="convergence")
+    parser.add_argument("--out", default="runs/convergence")
     args = parser.parse_args(argv)
     if args.quick:
         args.iterations, args.every = 4, 2

@@ -229,7 +229,7 @@ def main(argv=None) -> int:
     )
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--quick", action="store_true", help="a tiny run for tests")
-    parser.add_argument("--out", default="exploration")
+    parser.add_argument("--out", default="runs/exploration")
     args = parser.parse_args(argv)
     if args.quick:
         args.n_prefs, args.iterations = 3, 5

@@ -1,4 +1,4 @@
-"""The issue's yardstick: one single-objective PPO run of the `[1, 0]` end, off the shelf.
+"""The yardstick: one single-objective PPO run of the `[1, 0]` end, off the shelf.
 
 `sbx-rl` 0.28 (a JAX PPO with Stable-Baselines3's interface), 16 Gymnasium `Walker2d-v5`
 in MuJoCo's C engine (`DummyVecEnv`), 500-step episodes, no control cost (this project's
@@ -7,13 +7,16 @@ rollouts of 128 steps, minibatches of 256, 10 epochs, Adam 3e-4, clip 0.2, GAE 0
 `log_std_init = 0`; 1,000,000 env steps; then its deterministic policy over 8 episodes.
 Prints and writes (`--out`, JSON) the training wall time, env-steps/s, and the mean
 speed and episode length, so the front's wall time can be set against nine such runs
-measured in the same sitting on the same machine.
+measured on the same machine in the same hour (speed varies from hour to hour).
 
 `sbx-rl` is not a dependency of wcac_jax (it pulls in PyTorch through Stable-Baselines3);
 run this in a separate environment:
 
     python -m venv /tmp/sbx && /tmp/sbx/bin/pip install "sbx-rl==0.28.0" "gymnasium[mujoco]"
-    /tmp/sbx/bin/python experiments/reference_ppo.py --out runs/reference_ppo.json
+    /tmp/sbx/bin/python experiments/reference_ppo.py --seed 0 --out runs/reference_ppo_seed0.json
+
+The committed runs are `experiments/results/reference_ppo_repeat<R>_seed<S>.json`, one
+repeat per machine and hour (experiments/README.md).
 """
 
 from __future__ import annotations

@@ -12,7 +12,8 @@ paper, mean over seeds with the min-max band; one panel for depth, one for width
 prints the table.
 
     python experiments/walker2d_ablation.py                    # paper scale: 1M steps
-    python experiments/walker2d_ablation.py --scale 0.1 --out experiments/results/walker2d_ablation
+    python experiments/walker2d_ablation.py --config paper --physics gymnasium-v5 --engine mujoco \
+        --scale 0.1 --chunks 5 --out experiments/results/walker2d_ablation_paper_v5_10pct
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """What the Walker2d experiments share: the named training configurations and the
 per-policy summaries (forward speed, control effort) read from a sweep's `front.json`.
 
-`paper` is the paper's setting (SPEC §5, paper Appendix B.2) and nothing else. Every
+`paper` is the paper's setting (the paper's Appendix B.2) and nothing else. Every
 departure from it is a separate, named configuration here, so that a result is never
 silently tuned: the scripts record the name and the full config with the results.
 """

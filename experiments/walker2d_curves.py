@@ -8,7 +8,8 @@ paper, mean over seeds with the min-max band, one line per configuration) and
 `OUT/curves.json` (per configuration: the evaluated forward return, speed and episode
 length of each seed's deterministic policy, and the smoothed mean curve).
 
-    python experiments/walker2d_curves.py --out experiments/results/walker2d_curves
+    python experiments/walker2d_curves.py --physics gymnasium-v5 --engine mujoco --chunks 10 \
+        --out experiments/results/walker2d_curves_v5_e5x16_w128
     python experiments/walker2d_curves.py --configs practical paper --seeds 3 --scale 1.0
 
 For `p = [1, 0]` the practical preset's estimated utopia point does not couple the seeds:

@@ -11,7 +11,8 @@ correlation between `p[0]` and the forward return (does the front keep the prefe
 order?); wall and compile seconds; the machine.
 
     python experiments/walker2d_front.py                       # paper scale: 1M steps/pref
-    python experiments/walker2d_front.py --scale 0.2 --out experiments/results/walker2d_front
+    python experiments/walker2d_front.py --config paper --physics gymnasium-v5 --engine mujoco \
+        --chunks 50 --out experiments/results/walker2d_front_paper_v5
     python experiments/walker2d_front.py --config mlp-adam     # a named departure
     python experiments/walker2d_front.py --config practical --out runs/walker2d_practical
     python experiments/walker2d_front.py --config practical --anneal-lr --out runs/annealed
@@ -21,7 +22,8 @@ order?); wall and compile seconds; the machine.
 With `--config practical`, each preference reports its best of its last 5 policies,
 20,480 env steps apart, as the sweep CLI's Walker2d default does (`wcac_jax.selection`;
 the final policy when `--scale` leaves no room for them); `--select-last 1` reports
-the final policies, as the committed `walker2d_front_practical*` results did.
+the final policies, as the committed `walker2d_front_practical_*` results without
+`select5` in their name did (experiments/README.md: the command behind each result).
 
 `--scale` multiplies the paper's 1,000,000 env steps per preference. See
 `walker2d_common.py` for the named configurations; the sweep CLI's training flags
