@@ -993,11 +993,6 @@ def t_kuairand_run(doc: Doc) -> str:
 # ---------------------------------------------------------------- inline values
 
 
-def v_preset_wall(doc: Doc) -> str:
-    f = front_of(R["front_preset"])
-    return doc.link(f"{num(f.meta['wall_s'])} s", f.source)
-
-
 def v_default_wall_range(doc: Doc) -> str:
     walls = [front_of(r).meta["wall_s"] / 60 for r in R["cli_default"]]
     return doc.link(
@@ -1007,17 +1002,8 @@ def v_default_wall_range(doc: Doc) -> str:
 
 def v_selection_ge7(doc: Doc) -> str:
     fronts = [front_of(r) for r in R["select5_seeds"]]
-    return f"{sum(f.n_nd >= 7 for f in fronts)} of {len(fronts)}"
-
-
-def v_ref_ppo_latest(doc: Doc) -> str:
-    path = R["reference_ppo"][-1]
-    return doc.link(f"{num(load(path)['train_s'])} s", path)
-
-
-def v_kuairand_seconds(doc: Doc) -> str:
-    path = f"{R['kuairand']}/run.json"
-    return doc.link(f"{num(load(path)['seconds']['total'])} s", path)
+    text = f"{sum(f.n_nd >= 7 for f in fronts)} of {len(fronts)}"
+    return doc.link(text, os.path.dirname(R["select5_seeds"][0]))
 
 
 TABLES: dict[str, Callable[[Doc], str]] = {
@@ -1110,11 +1096,8 @@ def v_kuairand_training(doc: Doc) -> str:
 
 VALUES: dict[str, Callable[[Doc], str]] = {
     "kuairand_training": v_kuairand_training,
-    "preset_wall": v_preset_wall,
     "default_wall_range": v_default_wall_range,
     "selection_ge7": v_selection_ge7,
-    "ref_ppo_latest": v_ref_ppo_latest,
-    "kuairand_seconds": v_kuairand_seconds,
 }
 
 BLOCK = re.compile(r"(<!-- table:([\w-]+) -->\n)(.*?)(<!-- /table -->)", re.S)
