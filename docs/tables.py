@@ -1056,6 +1056,13 @@ TABLES: dict[str, Callable[[Doc], str]] = {
     "front_w128": lambda doc: per_pref(doc, R["front_w128"]),
     "front_w128_summary": lambda doc: two_directions(doc, R["front_w128"], paper=True),
     "front_w128_fixed": t_fixed_utopia_w128,
+    "front_w128_fixed_summary": lambda doc: summary_rows(
+        doc,
+        [
+            ("estimated utopia", front_of(R["front_w128"]), None),
+            ("fixed (400, 100)", front_of(R["front_w128_fixed"]), None),
+        ],
+    ),
     "front_w128_seed1": t_w128_seed1,
     "front_w64": lambda doc: per_pref(doc, R["front_w64"]),
     "front_w64_summary": lambda doc: two_directions(doc, R["front_w64"], paper=True),
