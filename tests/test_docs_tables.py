@@ -71,7 +71,7 @@ def test_an_unknown_block_is_an_error():
     assert unknown == ["no_such_table"]
 
 
-def test_every_table_reads_only_existing_results():
+def test_every_table_and_value_renders_from_the_results():
     for name, fn in tables.TABLES.items():
         out = fn(tables.Doc("docs/results.md"))
         assert out.startswith("|"), name
