@@ -1,0 +1,1175 @@
+"""Writes every measured number of README.md and docs/*.md from the committed results.
+
+Each table sits between `<!-- table:NAME -->` and `<!-- /table -->`, each number in prose
+between `<!-- value:NAME -->` and `<!-- /value -->`; this script rewrites what lies between
+them from `experiments/results/` and nothing else, so a number in the documentation is
+always the one a committed result holds, with a link to it.
+
+    python docs/tables.py           # rewrite the blocks in place
+    python docs/tables.py --check   # exit 1, naming each block that differs
+
+It reads JSON only (no `wcac_jax` import, no JAX), so it runs anywhere in a second.
+"""
+
+from __future__ import annotations
+
+import argparse
+import glob
+import json
+import os
+import re
+import sys
+from collections.abc import Callable
+from functools import cache
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+RES = "experiments/results"
+
+# Results by what they are; every input path of this script is here.
+W = f"{RES}/walker2d_front_practical_v5"
+R = {
+    # the first command (`wcac-sweep --n-prefs 9`), under today's default and the earlier one
+    "cli_default": [f"{RES}/cli_default_front_select5/seed{s}" for s in range(3)],
+    "cli_final_default": [f"{RES}/cli_default_front_final/seed{s}" for s in range(3)],
+    # the practical front on Walker2d (walker2d_front.py), the paper's nine preferences
+    "front_default": f"{W}_e5x16_select5_with_linear",
+    "front_preset": f"{W}_e5x16/seed0",
+    "preset_seeds": [f"{W}_e5x16/seed{s}" for s in range(17)],
+    "select5_seeds": [f"{W}_e5x16_select5/seed{s}" for s in range(17)],
+    "linear_seeds": [f"{W}_e5x16/seed0"] + [f"{W}_e5x16_linear/seed{s}" for s in (1, 2)],
+    "margin002": [f"{W}_e5x16_margin002/seed{s}" for s in range(3)],
+    "margin005": [f"{W}_e5x16_margin005/seed{s}" for s in range(17)],
+    "mu5": [f"{W}_e5x16_mu5/seed{s}" for s in range(17)],
+    "anneal": [f"{W}_e5x16_anneal/seed{s}" for s in range(3)],
+    "n32": [f"{W}_e5x16_n32/seed{s}" for s in range(3)],
+    "aug001": [f"{W}_e5x16_aug001"],
+    "aug005": [f"{W}_e5x16_aug005/seed{s}" for s in range(3)],
+    "fixed_utopia": [f"{W}_e5x16_fixed_utopia"],
+    "e5x32": [f"{W}_e5x32"],
+    "front_w128": f"{W}_e10x8_w128/seed0",
+    "front_w128_seed1": f"{W}_e10x8_w128/seed1",
+    "front_w128_fixed": f"{W}_e10x8_w128_fixed_utopia",
+    "front_w64": f"{W}_e10x8_w64",
+    # the paper's recipe on Walker2d
+    "front_paper_v5": f"{RES}/walker2d_front_paper_v5",
+    "front_paper_warm_1M": f"{RES}/walker2d_front_paper_warm_brax_1M",
+    "front_paper_warm_20pct": f"{RES}/walker2d_front_paper_warm_brax_20pct",
+    # [1, 0] curves (the last one also holds the paper preset's) and depth/width ablations
+    "curves": [
+        f"{RES}/walker2d_curves_v5_e5x16_w128",
+        f"{RES}/walker2d_curves_v5_e10x8_w128",
+        f"{RES}/walker2d_curves_v5_e5x32_w128",
+        f"{RES}/walker2d_curves_v5_e10x8_w64",
+    ],
+    "ablation_practical": f"{RES}/walker2d_ablation_practical_v5_e5x16",
+    "ablation_practical_10x8": f"{RES}/walker2d_ablation_practical_v5_e10x8",
+    "ablation_paper_v5": f"{RES}/walker2d_ablation_paper_v5",
+    "ablation_paper_v5_10pct": f"{RES}/walker2d_ablation_paper_v5_10pct",
+    "ablation_paper_warm_1M": f"{RES}/walker2d_ablation_paper_warm_brax_1M",
+    "ablation_paper_warm_10pct": f"{RES}/walker2d_ablation_paper_warm_brax_10pct",
+    # problems with known answers
+    "exploration": f"{RES}/exploration/exploration.json",
+    "convergence": f"{RES}/convergence/convergence.json",
+    # benchmarks
+    "bench_practical": [
+        f"{RES}/bench_practical_e5x16_w128_mujoco_v5_9x16_repeat{s}.json" for s in range(1, 5)
+    ]
+    + [
+        f"{RES}/bench_practical_e10x8_w128_mujoco_v5_9x16.json",
+        f"{RES}/bench_practical_e10x8_w64_mujoco_v5_9x16_repeat1.json",
+        f"{RES}/bench_practical_e10x8_w64_mujoco_v5_9x16_repeat2.json",
+    ],
+    "reference_ppo": [
+        f"{RES}/reference_ppo_repeat1_seed0.json",
+        f"{RES}/reference_ppo_repeat1_seed1.json",
+    ]
+    + [f"{RES}/reference_ppo_repeat2_seed{s}.json" for s in range(4)]
+    + [f"{RES}/reference_ppo_repeat3_seed0.json"],
+    "bench_env": f"{RES}/bench_env_mjx_models.json",
+    "bench_env_engines": f"{RES}/bench_env_drift_engines.json",
+    "bench_engines": f"{RES}/bench_paper_engine_grid.json",
+    "bench_mjx_9x128": f"{RES}/bench_paper_mjx_v5_9x128.json",
+    "bench_throughput": f"{RES}/bench_paper_mjx_brax_9x16.json",
+    "bench_processes": f"{RES}/bench_processes_cpu.json",
+    "bench_cli_v5": f"{RES}/bench_cli_paper_mujoco_v5_100k/front.json",
+    "bench_cli_v5_loaded": f"{RES}/bench_cli_paper_mujoco_v5_100k/front_loaded.json",
+    # the recommendation experiment
+    "kuairand": f"{RES}/kuairand",
+    "kuairand_seed1": f"{RES}/kuairand/seed1",
+}
+
+STATED_REF = (-500.0, -3000.0)  # Walker2d's default_hv_ref at T = 500
+EPISODES, T = 8, 500  # the Walker2d evaluations' episodes and time limit
+MINUS = "\u2212"
+
+
+# ---------------------------------------------------------------- reading and formatting
+
+
+@cache
+def load(path: str) -> dict:
+    with open(os.path.join(ROOT, path)) as f:
+        return json.load(f)
+
+
+def num(x: float | None, digits: int = 0) -> str:
+    """`1,234.5` with a typographic minus; `–` for a missing value."""
+    if x is None:
+        return "–"
+    s = f"{x:,.{digits}f}"
+    if s.lstrip("-").strip("0.,") == "":
+        s = s.lstrip("-")  # no "-0.00"
+    return s.replace("-", MINUS)
+
+
+def pct(x: float, digits: int = 1) -> str:
+    s = num(x, digits)
+    return ("" if s.startswith(MINUS) else "+") + s + "%"
+
+
+def pref_str(p) -> str:
+    return "[" + ", ".join(f"{v:g}" for v in p) + "]"
+
+
+class Doc:
+    """Where a block is written: links are made relative to this file."""
+
+    def __init__(self, path: str):
+        self.dir = os.path.dirname(path)
+
+    def link(self, text: str, target: str) -> str:
+        return f"[{text}]({os.path.relpath(target, self.dir or '.')})"
+
+
+# ---------------------------------------------------------------- fronts
+
+
+def speed_and_control(forward: float, control: float, length: float) -> tuple[float, float]:
+    """Mean forward speed (m/s) and control energy per step of one evaluated policy.
+
+    The reward per step is `[x_velocity, -sum(a^2)] + healthy`, healthy 1 on every step but
+    a falling one, so with `f` falls per episode the healthy steps are `L - f` and the
+    speed is `(R0 - L + f) / L`. Where the mean length leaves `f` open, the middle of its
+    range (its ends differ by less than `1 / L`), as `experiments/walker2d_common.py` does.
+    """
+    total = round(EPISODES * length)
+    if total - EPISODES < T - 1:
+        lo = hi = 1.0  # every episode fell
+    else:
+        s_max = (EPISODES * length - EPISODES) // (T - 1)
+        lo = max(0.0, 1.0 - s_max / EPISODES)
+        hi = min(1.0, max(lo, length - control))
+    f = (lo + hi) / 2
+    return (forward - length + f) / length, (length - f - control) / length
+
+
+def nondominated(points: list[tuple[float, float]]) -> list[bool]:
+    return [not any(q[0] >= p[0] and q[1] >= p[1] and q != p for q in points) for p in points]
+
+
+def hypervolume(points, ref=STATED_REF) -> float:
+    pts = sorted(
+        (p for p, nd in zip(points, nondominated(points), strict=True) if nd), reverse=True
+    )
+    hv, y_prev = 0.0, ref[1]
+    for x, y in pts:
+        if x > ref[0] and y > y_prev:
+            hv += (x - ref[0]) * (y - y_prev)
+            y_prev = y
+    return hv
+
+
+def spearman(a, b) -> float:
+    def ranks(v):
+        order = sorted(range(len(v)), key=lambda i: v[i])
+        r = [0.0] * len(v)
+        i = 0
+        while i < len(v):
+            j = i
+            while j + 1 < len(v) and v[order[j + 1]] == v[order[i]]:
+                j += 1
+            for k in range(i, j + 1):
+                r[order[k]] = (i + j) / 2
+            i = j + 1
+        return r
+
+    ra, rb = ranks(a), ranks(b)
+    ma, mb = sum(ra) / len(ra), sum(rb) / len(rb)
+    cov = sum((x - ma) * (y - mb) for x, y in zip(ra, rb, strict=True))
+    va = sum((x - ma) ** 2 for x in ra) ** 0.5
+    vb = sum((y - mb) ** 2 for y in rb) ** 0.5
+    return cov / (va * vb)
+
+
+class Front:
+    """One evaluated front: preferences, undiscounted returns, mean lengths."""
+
+    def __init__(self, prefs, returns, lengths, source: str, meta: dict):
+        self.prefs = [list(p) for p in prefs]
+        self.returns = [tuple(float(v) for v in r) for r in returns]
+        self.lengths = [float(v) for v in lengths]
+        self.source = source  # the file it was read from
+        self.meta = meta  # the run's front.json (wall_s, env_steps_per_s, selection, ...)
+
+    @property
+    def nd(self) -> list[bool]:
+        return nondominated(self.returns)
+
+    @property
+    def n_nd(self) -> int:
+        return sum(self.nd)
+
+    @property
+    def spearman(self) -> float:
+        return spearman([p[0] for p in self.prefs], [r[0] for r in self.returns])
+
+    def hv(self, ref=STATED_REF) -> float:
+        return hypervolume(self.returns, ref)
+
+    def outside(self, ref) -> int:
+        return sum(1 for r in self.returns if not (r[0] > ref[0] and r[1] > ref[1]))
+
+    def row(self, pref) -> int:
+        return self.prefs.index(list(pref))
+
+    def sc(self, i: int) -> tuple[float, float]:
+        return speed_and_control(*self.returns[i], self.lengths[i])
+
+    @property
+    def forward_end(self) -> tuple[float, float]:
+        """`[1, 0]`'s speed and mean length."""
+        i = self.row([1.0, 0.0])
+        return self.sc(i)[0], self.lengths[i]
+
+    @property
+    def walks(self) -> bool:
+        speed, length = self.forward_end
+        return speed >= 2.5 and length >= 450
+
+    @property
+    def control_end(self) -> float:
+        return self.returns[self.row([0.0, 1.0])][1]
+
+    def final(self) -> Front:
+        """The same training's final policies (a run that chose among its last ones)."""
+        sel = self.meta["selection"]
+        return Front(self.prefs, sel["final_return"], sel["final_length"], self.source, {})
+
+
+def front_of(run: str, direction: str = "smooth_wc") -> Front:
+    """A front from a sweep directory (`front.json`) or a `walker2d_front.py` output."""
+    path = f"{run}/front.json"
+    if not os.path.exists(os.path.join(ROOT, path)):
+        path = f"{run}/{direction}/front.json"
+    d = load(path)
+    rows = d["prefs"]
+    return Front(
+        [r["pref"] for r in rows],
+        [r["return"] for r in rows],
+        [r["episode_length"] for r in rows],
+        path,
+        d,
+    )
+
+
+def union_nd(a: Front, b: Front) -> tuple[int, int]:
+    nd = nondominated(a.returns + b.returns)
+    return sum(nd[: len(a.returns)]), sum(nd[len(a.returns) :])
+
+
+# ---------------------------------------------------------------- tables
+
+
+def md(header: list[str], rows: list[list[str]], align: str | None = None) -> str:
+    align = align or "-" * len(header)
+    sep = ["---:" if a == "r" else "---" for a in align]
+    lines = ["| " + " | ".join(header) + " |", "|" + "|".join(sep) + "|"]
+    lines += ["| " + " | ".join(r) + " |" for r in rows]
+    return "\n".join(lines)
+
+
+def t_glance(doc: Doc) -> str:
+    fronts = [front_of(r) for r in R["cli_default"]]
+    nd = ", ".join(doc.link(str(f.n_nd), f.source) for f in fronts)
+    sp = ", ".join(doc.link(num(f.forward_end[0], 2), f.source) for f in fronts)
+    rho = ", ".join(doc.link(num(f.spearman, 2), f.source) for f in fronts)
+    wall = ", ".join(doc.link(num(f.meta["wall_s"] / 60, 1), f.source) for f in fronts)
+    ex = load(R["exploration"])["problems"]
+    bandit, dst = ex["concave_bandit"]["directions"], ex["deep_sea_treasure"]["directions"]
+    conv = load(R["convergence"])["results"]
+    worst = max(p["final_over_initial"] for p in conv[0]["prefs"])
+    ln = lambda text: doc.link(text, R["exploration"])  # noqa: E731
+    rows = [
+        [
+            "`walker2d`",
+            "practical update, 1M env steps per preference, best of the last 5 policies",
+            f"seeds 0, 1, 2: {nd} of 9 points non-dominated; `[1, 0]` walks at {sp} m/s; "
+            f"Spearman(`p₀`, forward) {rho}",
+            f"{wall} min",
+        ],
+        [
+            "`concave_bandit`",
+            "paper's update tuned for the bandit, `--n-prefs 11`",
+            f"{ln(str(bandit['smooth_wc']['distinct_points']))} distinct points on the exact "
+            f"non-convex front, largest gap {ln(num(bandit['smooth_wc']['largest_theta_gap'], 3))}"
+            f" rad (linear: {ln(str(bandit['linear']['distinct_points']))}, the two ends)",
+            "not recorded",
+        ],
+        [
+            "`deep_sea_treasure`",
+            "paper's update with Adam on `d`",
+            f"{ln(str(dst['smooth_wc']['points_near_front']))} of 11 points on the convex "
+            f"front, {ln(str(dst['smooth_wc']['distinct_points']))} distinct (linear: "
+            f"{ln(str(dst['linear']['distinct_points']))})",
+            "not recorded",
+        ],
+        [
+            "`tabular_momdp`",
+            "paper's update, `α/(t+1)`",
+            "gap to the exact smoothed-WC optimum: "
+            f"{doc.link(num(100 * worst, 2) + '%', R['convergence'])} of the initial gap",
+            "not recorded",
+        ],
+    ]
+    return md(["`--env`", "default", "what the front achieves", "wall, 2-core CPU"], rows)
+
+
+def t_cli_default(doc: Doc) -> str:
+    rows = []
+    for seed, run in enumerate(R["cli_default"]):
+        f = front_of(run)
+        g = f.final()
+        s, n = f.forward_end
+        gs, gn = g.forward_end
+        falls = ", ".join(
+            f"`{pref_str(p)}` ({num(length, 0)})"
+            for p, length in zip(f.prefs, f.lengths, strict=True)
+            if length < T
+        )
+        rows.append(
+            [
+                doc.link(str(seed), f.source),
+                f"{g.n_nd} → **{f.n_nd}** of 9",
+                f"{num(g.spearman, 2)} → **{num(f.spearman, 2)}**",
+                f"{num(gs, 2)} / {num(gn)} → **{num(s, 2)} m/s, {num(n)}**",
+                f"{num(g.control_end)} → {num(f.control_end)}",
+                falls or "none",
+                f"{num(g.hv())} → {num(f.hv())}",
+                num(f.meta["wall_s"]),
+            ]
+        )
+    head = [
+        "seed",
+        "non-dominated: final → chosen",
+        "Spearman (`p₀`, forward)",
+        "`[1, 0]`: speed, mean length",
+        "`[0, 1]` control return",
+        "falls in some episodes (mean length), chosen",
+        "HV, stated ref",
+        "wall s",
+    ]
+    return md(head, rows, "llllllrr")
+
+
+def t_cli_final_default(doc: Doc) -> str:
+    rows = []
+    for seed, run in enumerate(R["cli_final_default"]):
+        f = front_of(run)
+        s, n = f.forward_end
+        falls = ", ".join(
+            f"`{pref_str(p)}` ({num(length, 0)})"
+            for p, length in zip(f.prefs, f.lengths, strict=True)
+            if length < T
+        )
+        rows.append(
+            [
+                doc.link(str(seed), f.source),
+                f"{f.n_nd} of 9",
+                num(f.spearman, 2),
+                f"{num(s, 2)} m/s, {num(n)}",
+                num(f.control_end),
+                falls or "none",
+                num(f.hv()),
+                num(f.meta["wall_s"]),
+            ]
+        )
+    head = ["seed", "non-dominated", "Spearman", "`[1, 0]`: speed, mean length"]
+    head += ["`[0, 1]` control", "falls in some episodes (mean length)", "HV, stated ref"]
+    return md(head + ["wall s"], rows, "lrrlrlrr")
+
+
+def t_cli_film(doc: Doc) -> str:
+    run = R["cli_final_default"][1]
+    f = front_of(run)
+    film = load(f"{run}/film.json")["policies"]
+    rows = []
+    for i, p in enumerate(f.prefs):
+        s, c = f.sc(i)
+        fp = film[i]
+        seen = "falls" if fp["fell"] else f"{num(fp['distance_m'], 2)} m"
+        r = f.returns[i]
+        rows.append(
+            [f"`{pref_str(p)}`", f"{num(r[0])}, {num(r[1])}", num(f.lengths[i], 1)]
+            + [num(s, 2), num(c, 2), seen]
+        )
+    head = ["`p`", "forward, control return", "length", "speed m/s", "control/step"]
+    return md(head + [doc.link("in the film (300 steps)", f"{run}/film.json")], rows, "lrrrrl")
+
+
+def per_pref(doc: Doc, run: str, directions=("smooth_wc", "linear")) -> str:
+    fronts = [front_of(run, d) for d in directions]
+    head = ["`p`"]
+    for d, f in zip(directions, fronts, strict=True):
+        head += [f"{doc.link(f'`{d}`', f.source)}: forward, control", "length", "m/s", "ctrl/step"]
+    rows = []
+    for i, p in enumerate(fronts[0].prefs):
+        row = [pref_str(p)]
+        for f in fronts:
+            s, c = f.sc(i)
+            row += [f"{num(f.returns[i][0])}, {num(f.returns[i][1])}", num(f.lengths[i], 1)]
+            row += [num(s, 2), num(c, 2)]
+        rows.append(row)
+    return md(head, rows, "l" + "lrrr" * len(fronts))
+
+
+HV_REFS = (STATED_REF, (-100.0, -300.0), (-100.0, -100.0))
+
+
+def summary_rows(doc: Doc, named: list[tuple[str, Front, Front | None]]) -> str:
+    head = ["front", "HV (−500, −3000), the stated ref", "HV (−100, −300)", "HV (−100, −100)"]
+    head += ["non-dominated (own; in the union)", "Spearman `p₀` vs forward", "wall s"]
+    rows = []
+    for name, f, other in named:
+        hv = [
+            num(f.hv(ref)) + (f" ({f.outside(ref)} outside)" if f.outside(ref) else "")
+            for ref in HV_REFS
+        ]
+        own = f"{f.n_nd} of 9" + (f"; {union_nd(f, other)[0]}" if other else "")
+        rows.append(
+            [doc.link(name, f.source)] + hv + [own, num(f.spearman, 2), num(f.meta.get("wall_s"))]
+        )
+    return md(head, rows, "lrrrrrr")
+
+
+def two_directions(doc: Doc, run: str, paper: bool = False) -> str:
+    s, lin = front_of(run, "smooth_wc"), front_of(run, "linear")
+    named = [("`smooth_wc`", s, lin), ("`linear`", lin, s)]
+    if paper:
+        ps, pl = front_of(R["front_paper_v5"], "smooth_wc"), front_of(R["front_paper_v5"], "linear")
+        named += [("paper preset, `smooth_wc`", ps, pl), ("paper preset, `linear`", pl, ps)]
+    return summary_rows(doc, named)
+
+
+def seeds_table(doc: Doc, key: str, selection: bool = False) -> str:
+    rows, fronts = [], [front_of(r) for r in R[key]]
+    for seed, f in enumerate(fronts):
+        s, n = f.forward_end
+        row = [doc.link(str(seed), f.source)]
+        if selection:
+            g = f.final()
+            gs, gn = g.forward_end
+            chosen = f.meta["selection"]["chosen_iteration"]
+            last = max(f.meta["selection"]["candidate_iterations"])
+            row += [
+                f"{g.n_nd} → **{f.n_nd}**",
+                str(sum(c != last for c in chosen)),
+                f"{num(gs, 2)} / {num(gn)} → {num(s, 2)} / {num(n)}",
+                f"{num(g.spearman, 2)} → {num(f.spearman, 2)}",
+                f"{num(g.hv())} → {num(f.hv())}",
+            ]
+        else:
+            row += [
+                f"{num(s, 2)} m/s, {num(n, 1)}",
+                num(f.control_end),
+                f"{f.n_nd} of 9",
+                num(f.spearman, 2),
+                num(f.hv()),
+                num(f.hv((-100.0, -100.0))),
+            ]
+        rows.append(row + [num(f.meta["wall_s"])])
+    if selection:
+        head = ["seed", "non-dominated: final → chosen", "choices not the final policy"]
+        head += ["`[1, 0]` m/s / length", "Spearman", "HV, stated ref", "wall s"]
+        return md(head, rows, "llrlllr")
+    head = ["seed", "`[1, 0]`: speed, length", "`[0, 1]` control", "non-dominated"]
+    head += ["Spearman", "HV (stated ref)", "HV (−100, −100)", "wall s"]
+    return md(head, rows, "llrrrrrr")
+
+
+def rule_row(name: str, fronts: list[Front]) -> list[str]:
+    nds = [f.n_nd for f in fronts]
+    mean = lambda xs: sum(xs) / len(xs)  # noqa: E731
+    return [
+        name,
+        str(len(fronts)),
+        ", ".join(map(str, nds)),
+        str(sum(n >= 7 for n in nds)),
+        f"{sum(nds)} of {9 * len(fronts)}",
+        str(sum(f.walks for f in fronts)),
+        str(sum(f.spearman >= 0.9 - 1e-9 for f in fronts)),
+        str(sum(f.control_end >= 400 for f in fronts)),
+        num(mean([f.hv() for f in fronts])),
+        num(mean([f.hv((-100.0, -100.0)) for f in fronts])),
+    ]
+
+
+RULE_HEAD = [
+    "configuration",
+    "seeds",
+    "non-dominated, per seed",
+    "≥ 7 of 9",
+    "total",
+    "`[1, 0]` walks",
+    "Spearman ≥ 0.9",
+    "`[0, 1]` control ≥ 400",
+    "HV, stated ref, mean",
+    "HV (−100, −100), mean",
+]
+
+
+def variants(doc: Doc, named: list[tuple], direction: str = "smooth_wc") -> str:
+    """One row per configuration: `(label, key of R, first n seeds or None for all[,
+    direction])`."""
+    rows = []
+    for label, key, n, *d in named:
+        runs = R[key][:n] if n else R[key]
+        fronts = [front_of(r, d[0] if d else direction) for r in runs]
+        rows.append(rule_row(doc.link(label, fronts[0].source), fronts))
+    return md(RULE_HEAD, rows, "lrlrrrrrrr")
+
+
+def t_selection_rule(doc: Doc) -> str:
+    fronts = [front_of(r) for r in R["select5_seeds"]]
+    rows = [
+        rule_row(
+            doc.link("preset, final policies (committed)", R["preset_seeds"][0]),
+            [front_of(r) for r in R["preset_seeds"]],
+        ),
+        rule_row("the same trainings' final policies", [f.final() for f in fronts]),
+        rule_row(doc.link("**best of the last 5 (the default)**", fronts[0].source), fronts),
+    ]
+    return md(RULE_HEAD, rows, "lrlrrrrrrr")
+
+
+def t_fixed_utopia_w128(doc: Doc) -> str:
+    f = front_of(R["front_w128_fixed"])
+    rows = [
+        [
+            pref_str(p),
+            f"{num(r[0])}, {num(r[1])}, {num(n)}",
+            "(" + ", ".join(num(x, 2) for x in row["lambda"]) + ")",
+        ]
+        for p, r, n, row in zip(f.prefs, f.returns, f.lengths, f.meta["prefs"], strict=True)
+    ]
+    return md(
+        ["`p`", doc.link("forward, control return, length", f.source), "`λ` at the end"], rows
+    )
+
+
+def t_w128_seed1(doc: Doc) -> str:
+    f = front_of(R["front_w128_seed1"])
+    head = [doc.link("`p`", f.source)] + [pref_str(p) for p in f.prefs]
+    r1 = ["forward, control return"] + [f"{num(r[0])}, {num(r[1])}" for r in f.returns]
+    r2 = ["length; speed m/s"] + [
+        f"{num(n)}; {num(f.sc(i)[0], 2)}" for i, n in enumerate(f.lengths)
+    ]
+    return md(head, [r1, r2])
+
+
+def t_curves(doc: Doc) -> str:
+    labels = {
+        "walker2d_curves_v5_e5x16_w128": "practical (128 × 128, 5 × 16)",
+        "walker2d_curves_v5_e10x8_w128": "practical, 10 × 8",
+        "walker2d_curves_v5_e5x32_w128": "practical, 5 × 32",
+        "walker2d_curves_v5_e10x8_w64": "practical, 64 × 64 and 10 × 8",
+    }
+    rows = []
+    for run in R["curves"]:
+        path = f"{run}/curves.json"
+        d = load(path)
+        for name, c in d["configs"].items():
+            if name == "paper" and run != R["curves"][-1]:
+                continue  # the paper preset's sweep is one, read back by the others
+            cells = []
+            for pol in c["policies"]:
+                s, _ = speed_and_control(
+                    pol["forward_return"], pol["control_return"], pol["episode_length"]
+                )
+                forward, length = pol["forward_return"], pol["episode_length"]
+                cells.append(f"{num(forward, 1)}, {num(s, 2)} m/s, {num(length, 1)}")
+            label = labels[os.path.basename(run)] if name != "paper" else "paper"
+            mean = f"{num(c['eval_speed_mean'], 2)} m/s, {num(c['eval_length_mean'])}"
+            rows.append([doc.link(label, path)] + cells + [mean, num(c.get("wall_s"))])
+    head = [
+        "preset",
+        "seed 0: forward, speed, length",
+        "seed 1",
+        "seed 2",
+        "mean speed, length",
+        "wall s",
+    ]
+    return md(head, rows, "lllllr")
+
+
+def ablation(doc: Doc, key: str, long: bool = True) -> str:
+    path = f"{R[key]}/ablation.json"
+    rows = []
+    for s in load(path)["sizes"]:
+        tf = s["train_forward_final"]
+        mean = sum(tf) / len(tf)
+        sd = (sum((x - mean) ** 2 for x in tf) / (len(tf) - 1)) ** 0.5  # over seeds, ddof 1
+        small = abs(s["eval_forward_mean"]) < 100  # returns of walkers that fall at once
+        dg = 1 if small else 0
+        row = [str(s["depth"]), str(s["width"])]
+        row += [f"{num(s['eval_forward_mean'], dg)} ± {num(s['eval_forward_std'], dg)}"]
+        row += [
+            ", ".join(num(v, dg) for v in s["eval_episode_length"]),
+            f"{num(mean, dg)} ± {num(sd, dg)}",
+        ]
+        if long:
+            speeds = [
+                num(speed_and_control(f, c, n)[0], 2)
+                for f, c, n in zip(
+                    s["eval_forward_return"],
+                    s["eval_control_return"],
+                    s["eval_episode_length"],
+                    strict=True,
+                )
+            ]
+            row += [", ".join(speeds), num(s["env_steps_per_s"]), num(s["wall_s"])]
+        rows.append(row)
+    head = ["depth", "width", doc.link("eval forward return (mean ± sd)", path)]
+    head += ["eval episode length per seed", "train forward return (last 5%)"]
+    if long:
+        head += ["eval speed m/s", "env-steps/s", "wall s"]
+    return md(head, rows, "rrrlrlrr" if long else "rrrlr")
+
+
+def t_paper_fronts(doc: Doc) -> str:
+    named = []
+    for label, key in (
+        ("Algorithm 2, v5 model, 1M", "front_paper_v5"),
+        ("warm critics, Brax model, 1M", "front_paper_warm_1M"),
+        ("warm critics, Brax model, 200k", "front_paper_warm_20pct"),
+    ):
+        s, lin = front_of(R[key], "smooth_wc"), front_of(R[key], "linear")
+        named += [(f"{label}, `smooth_wc`", s, lin), (f"{label}, `linear`", lin, s)]
+    head = ["front", "HV, stated ref", "HV (−100, −100)", "non-dominated", "Spearman"]
+    head += ["`[1, 0]`: forward, mean length", "`[0, 1]`: control per step, mean length", "wall s"]
+    rows = []
+    for name, f, _ in named:
+        i, j = f.row([1.0, 0.0]), f.row([0.0, 1.0])
+        ref = (-100.0, -100.0)
+        rows.append(
+            [
+                doc.link(name, f.source),
+                num(f.hv()),
+                num(f.hv(ref)) + f" ({f.outside(ref)} outside)",
+                f"{f.n_nd} of 9",
+                num(f.spearman, 2),
+                f"{num(f.returns[i][0], 1)}, {num(f.lengths[i], 1)}",
+                f"{num(f.sc(j)[1], 2)}, {num(f.lengths[j], 1)}",
+                num(f.meta["wall_s"]),
+            ]
+        )
+    return md(head, rows, "lrrrrllr")
+
+
+def t_exploration_bandit(doc: Doc) -> str:
+    path = R["exploration"]
+    d = load(path)["problems"]["concave_bandit"]["directions"]
+    rows = [
+        [
+            doc.link(f"`{k}`", path),
+            str(v["distinct_points"]),
+            f"{num(v['median_theta_error'], 3)}, {num(v['max_theta_error'], 3)}",
+            num(v["hypervolume_ratio"], 3),
+            num(v["largest_theta_gap"], 3),
+        ]
+        for k, v in d.items()
+    ]
+    head = ["direction", "distinct points", "`|θ − θ*(p)|` median, max (rad)"]
+    return md(head + ["HV / exact front's HV", "largest gap in θ (rad)"], rows, "lrrrr")
+
+
+def t_exploration_dst(doc: Doc) -> str:
+    path = R["exploration"]
+    d = load(path)["problems"]["deep_sea_treasure"]["directions"]
+    rows = []
+    for k, v in d.items():
+        near_opt = sum(x <= 1.0 for x in v["distance_to_wc_optimum"])
+        rows.append(
+            [
+                doc.link(f"`{k}`", path),
+                str(v["distinct_points"]),
+                f"{v['points_near_front']} of 11",
+                f"{near_opt} of 11",
+                num(v["hypervolume_ratio"], 3),
+                num(v["largest_gap_along_front"], 2),
+            ]
+        )
+    head = ["direction", "distinct points", "on the front (within 1)", "within 1 of `p`'s optimum"]
+    return md(head + ["HV / exact front's HV", "largest gap along the front"], rows, "lrrrrr")
+
+
+def t_convergence(doc: Doc) -> str:
+    path = R["convergence"]
+    rows = []
+    for r in load(path)["results"]:
+        worst = max(p["final_over_initial"] for p in r["prefs"])
+        slopes = ", ".join(("+" if p["slope"] > 0 else "") + num(p["slope"], 2) for p in r["prefs"])
+        rows.append(
+            [doc.link(f"`{r['setting']['name']}`", path), num(100 * worst, 2) + "%", slopes]
+        )
+    head = ["setting", "final gap / initial gap (worst of 3)", "log-log slope, 2nd half"]
+    return md(head, rows, "lrl")
+
+
+# ---------------------------------------------------------------- benchmarks
+
+
+PRACTICAL_BENCH = {  # what each benchmark run of the practical update was
+    "bench_practical_e5x16_w128_mujoco_v5_9x16_repeat1": "5 × 16, 128 × 128 (the preset)",
+    "bench_practical_e5x16_w128_mujoco_v5_9x16_repeat2": "the same, another machine, 6 iterations",
+    "bench_practical_e5x16_w128_mujoco_v5_9x16_repeat3": "the same, after three fronts",
+    "bench_practical_e5x16_w128_mujoco_v5_9x16_repeat4": "the same, a slow day",
+    "bench_practical_e10x8_w128_mujoco_v5_9x16": "10 × 8, 128 × 128 (the earlier preset)",
+    "bench_practical_e10x8_w64_mujoco_v5_9x16_repeat1": "10 × 8, 64 × 64 (the first preset)",
+    "bench_practical_e10x8_w64_mujoco_v5_9x16_repeat2": "10 × 8, 64 × 64, again",
+}
+
+
+def t_bench_practical(doc: Doc) -> str:
+    rows = []
+    for path in R["bench_practical"]:
+        d = load(path)
+        ms = d.get("ms_per_env_step") or {}
+        name = os.path.basename(path).removesuffix(".json")
+        rows.append(
+            [
+                doc.link(PRACTICAL_BENCH.get(name, name), path),
+                num(d["raw"]["env_steps_per_s"]),
+                num(d["sweep"]["env_steps_per_s"]),
+                num(d["sweep_over_raw"], 2) + "×",
+                f"{num(ms.get('physics'), 3)}, {num(ms.get('networks'), 3)}",
+                num(d["sweep"].get("cores_busy"), 2),
+            ]
+        )
+    head = ["update and run", "raw, 9 × 16 envs", "practical sweep", "sweep / raw"]
+    head += ["physics, networks ms per env step", "cores busy (sweep)"]
+    return md(head, rows, "lrrrlr")
+
+
+def t_reference_ppo(doc: Doc) -> str:
+    rows = []
+    for path in R["reference_ppo"]:
+        d = load(path)
+        rows.append(
+            [
+                doc.link(os.path.basename(path).removesuffix(".json"), path),
+                num(d["train_s"]),
+                num(d["env_steps_per_s"]),
+                num(d.get("cores_busy"), 2),
+                f"{num(d['eval_mean_speed_m_per_s'], 2)} m/s, {num(d['eval_mean_length'])}",
+            ]
+        )
+    head = [
+        "run",
+        "train s (1M env steps)",
+        "env-steps/s",
+        "cores busy",
+        "policy: speed, mean length",
+    ]
+    return md(head, rows, "lrrrl")
+
+
+def t_fronts_wall(doc: Doc) -> str:
+    rows = []
+    for label, key in (
+        ("preset, final policies", "preset_seeds"),
+        ("best of the last 5", "select5_seeds"),
+    ):
+        for seed, run in enumerate(R[key]):
+            f = front_of(run)
+            rows.append(
+                [
+                    label,
+                    doc.link(str(seed), f.source),
+                    num(f.meta["wall_s"]),
+                    num(f.meta["env_steps_per_s"]),
+                ]
+            )
+    return md(["front", "seed", "wall s", "env-steps/s"], rows, "llrr")
+
+
+def t_bench_env(doc: Doc) -> str:
+    path = R["bench_env"]
+    d = load(path)
+    by: dict[str, dict[int, float]] = {}
+    for s in d["stepping"]:
+        name = s["physics"].replace("-mujoco-solver", ", MuJoCo's solver (100/50)")
+        by.setdefault(name, {})[s["batch"]] = s["env_steps_per_s"]
+    batches = sorted({b for v in by.values() for b in v})
+    rows = [[doc.link(f"`{k}`", path)] + [num(v.get(b)) for b in batches] for k, v in by.items()]
+    return md(["physics (MJX)"] + [f"batch {b}" for b in batches], rows, "l" + "r" * len(batches))
+
+
+def t_drift(doc: Doc) -> str:
+    rows = []
+    for key in ("bench_env", "bench_env_engines"):
+        path = R[key]
+        for q in load(path)["qpos_drift"]:
+            at = q["max_abs_qpos_diff_at"]
+            rows.append(
+                [doc.link(" vs ".join(q["pair"]), path)]
+                + [f"{at[k]:.1e}" for k in ("1", "10", "50", "100")]
+            )
+    return md(["pair", "after 1 step", "10", "50", "100"], rows, "lrrrr")
+
+
+def t_bench_engines(doc: Doc) -> str:
+    path = R["bench_engines"]
+    d = load(path)
+    rows = []
+    for r in d["rows"] + [load(R["bench_mjx_9x128"])]:
+        ms = r.get("ms_per_env_step") or {}
+        raw, sw = r.get("raw") or {}, r.get("sweep") or {}
+        rows.append(
+            [
+                f"`{r['engine']}`",
+                f"`{r['physics']}`",
+                f"{r['P']} × {r['N']}",
+                num(raw.get("env_steps_per_s")),
+                num(raw.get("cores_busy"), 2),
+                num(sw.get("env_steps_per_s")),
+                num(sw.get("cores_busy"), 2),
+                f"{num(ms.get('physics'), 2)} / {num(ms.get('networks'), 2)}",
+                r.get("source", os.path.basename(R["bench_mjx_9x128"])),
+            ]
+        )
+    head = ["engine", "model", "P × N", "(a) raw", "cores (a)", "(b) sweep", "cores (b)"]
+    head += ["physics / networks ms per env step", doc.link("source", path)]
+    return md(head, rows, "lllrrrrll")
+
+
+def t_quiet_raw(doc: Doc) -> str:
+    path = R["bench_engines"]
+    by: dict[str, dict[str, dict]] = {}
+    for r in load(path)["quiet_raw_9x16"]:
+        by.setdefault(r["physics"], {})[r["engine"]] = r["raw"]
+    rows = []
+    for model, v in by.items():
+        mj, mx = v["mujoco"], v["mjx"]
+        rows.append(
+            [
+                doc.link(f"`{model}`", path),
+                f"{num(mj['env_steps_per_s'])} ({num(mj.get('cores_busy'), 2)})",
+                f"{num(mx['env_steps_per_s'])} ({num(mx.get('cores_busy'), 2)})",
+                num(mj["env_steps_per_s"] / mx["env_steps_per_s"], 1) + "×",
+            ]
+        )
+    return md(["model", "`mujoco` (cores busy)", "`mjx` (cores busy)", "ratio"], rows, "lrrr")
+
+
+def t_bench_throughput(doc: Doc) -> str:
+    path = R["bench_throughput"]
+    d = load(path)
+    row = [
+        doc.link(
+            f"2-core CPU, `{d['physics']}`, w={d['width']}, D={d['depth']}, K=L={d['K']}", path
+        ),
+        f"{d['P']} × {d['N']}",
+        num(d["raw"]["env_steps_per_s"]),
+        num(d["sweep"]["env_steps_per_s"]),
+        num(d["sequential"]["env_steps_per_s"]),
+        num(d["sweep_over_raw"], 2),
+        num(d["sweep_over_sequential"], 2),
+        num(d["sweep"]["compile_s"]) + " s",
+        num(d["peak_host_memory_gib"], 1) + " GiB",
+    ]
+    head = ["machine", "P × N", "(a) raw", "(b) sweep", "(c) sequential", "(b)/(a)", "(b)/(c)"]
+    return md(head + ["compile (b)", "peak host memory"], [row], "llrrrrrrr")
+
+
+def t_bench_processes(doc: Doc) -> str:
+    path = R["bench_processes"]
+    rows = []
+    for r in load(path)["results"]:
+        runs = r["runs"]
+        cells = [
+            f"{num(v['env_steps_per_s'])} env-steps/s, compile {num(v['compile_s'])} s"
+            for v in (runs["1 process x 2 devices"], runs["2 processes x 1 device"])
+        ]
+        same = "identical" if r["fronts_identical"] else "differ"
+        rows.append([doc.link(f"`{r['sweep']}`", path)] + cells + [same])
+    return md(["sweep", "1 process × 2 devices", "2 processes × 1 device", "fronts"], rows, "lrrl")
+
+
+def t_bench_cli(doc: Doc) -> str:
+    rows = []
+    for label, key in (
+        ("quiet machine", "bench_cli_v5"),
+        ("loaded machine", "bench_cli_v5_loaded"),
+    ):
+        d = load(R[key])
+        rows.append(
+            [
+                doc.link(label, R[key]),
+                num(d["env_steps_per_s"]),
+                num(d["compile_s"], 1),
+                num(d["wall_s"]),
+                num(d["hypervolume"]),
+            ]
+        )
+    return md(["run", "env-steps/s", "compile s", "wall s", "HV"], rows, "lrrrr")
+
+
+# ---------------------------------------------------------------- recommendation
+
+SIGNALS = ("click", "like", "follow", "comment", "forward", "hate", "watch_time")
+SCALE = {"like": 1e2, "follow": 1e4, "comment": 1e3, "forward": 1e3, "hate": 1e4}
+HEADS = ("Click↑", "Like↑ (e-2)", "Follow↑ (e-4)", "Comment↑ (e-3)", "Forward↑ (e-3)")
+HEADS += ("Dislike↓ (e-4)", "WatchTime↑")
+
+
+def kuairand(doc: Doc, key: str, kind: str) -> str:
+    path = f"{R[key]}/table.json"
+    d = load(path)
+    bc = d["methods"]["Behavior-Clone"][kind]
+    rows = []
+    for name, m in d["methods"].items():
+        cells = []
+        for s in SIGNALS:
+            v = m[kind][s] * SCALE.get(s, 1.0)
+            rel = 100 * (m[kind][s] - bc[s]) / bc[s]
+            cells.append(num(v, 3) + ("" if name == "Behavior-Clone" else f" ({pct(rel)})"))
+        rows.append([name] + cells)
+    if kind == "truth":
+        rows.append(
+            ["logged policy (test rows)"]
+            + [num(d["logged"]["truth"][s] * SCALE.get(s, 1.0), 3) for s in SIGNALS]
+        )
+    label = "NCIS (% vs BC)" if kind == "ncis" else "true value (% vs BC)"
+    return md([doc.link(label, path), *HEADS], rows)
+
+
+def t_kuairand_fig2(doc: Doc) -> str:
+    """Each leaning policy's true values relative to the unified preference's, in %."""
+    path = f"{R['kuairand']}/fig2.json"
+    d = load(path)
+    unified = d["values"]["truth"]["unified"]
+    rows = []
+    for sig, lean in zip(d["signals"], d["values"]["truth"]["leaning"], strict=True):
+        cells = [pct(100 * (v - u) / u) for v, u in zip(lean, unified, strict=True)]
+        own = d["signals"].index(sig)
+        cells[own] = f"**{cells[own]}**"
+        rows.append([f"0.4 on {sig}"] + cells)
+    return md([doc.link("leaning policy, true value vs unified", path), *HEADS], rows)
+
+
+def t_kuairand_run(doc: Doc) -> str:
+    rows = []
+    for key in ("kuairand", "kuairand_seed1"):
+        path = f"{R[key]}/run.json"
+        d = load(path)
+        sec = d["seconds"]
+        rows.append(
+            [
+                doc.link(f"seed {d['seed']}", path),
+                num(d["rows"]),
+                num(d["train_rows"]),
+                num(d["test_rows"]),
+                num(d["users"]),
+                num(d["candidates"]),
+                num(d["state_dim"]),
+                num(sec["wcac"]),
+                num(sec["total"]),
+            ]
+        )
+    head = ["run", "rows used", "train rows", "test rows", "users", "candidates", "state dims"]
+    return md(head + ["wcac's program s", "total wall s"], rows, "lrrrrrrrr")
+
+
+# ---------------------------------------------------------------- inline values
+
+
+def v_default_wall_range(doc: Doc) -> str:
+    walls = [front_of(r).meta["wall_s"] / 60 for r in R["cli_default"]]
+    return doc.link(
+        f"{num(min(walls), 0)}–{num(max(walls), 0)} minutes", R["cli_default"][0] + "/front.json"
+    )
+
+
+def v_selection_ge7(doc: Doc) -> str:
+    fronts = [front_of(r) for r in R["select5_seeds"]]
+    text = f"{sum(f.n_nd >= 7 for f in fronts)} of {len(fronts)}"
+    return doc.link(text, os.path.dirname(R["select5_seeds"][0]))
+
+
+TABLES: dict[str, Callable[[Doc], str]] = {
+    "glance": t_glance,
+    "cli_default": t_cli_default,
+    "cli_final_default": t_cli_final_default,
+    "cli_film": t_cli_film,
+    "front_default": lambda doc: per_pref(doc, R["front_default"]),
+    "front_default_summary": lambda doc: two_directions(doc, R["front_default"]),
+    "front_preset": lambda doc: per_pref(doc, R["front_preset"]),
+    "front_preset_summary": lambda doc: two_directions(doc, R["front_preset"], paper=True),
+    "linear_seeds": lambda doc: variants(
+        doc,
+        [
+            ("`smooth_wc`, preset", "preset_seeds", 3),
+            ("`linear`, preset", "linear_seeds", None, "linear"),
+        ],
+    ),
+    "preset_seeds": lambda doc: seeds_table(doc, "preset_seeds"),
+    "select5_seeds": lambda doc: seeds_table(doc, "select5_seeds", selection=True),
+    "selection_rule": t_selection_rule,
+    "variants_3": lambda doc: variants(
+        doc,
+        [
+            ("preset (margin 0.1, μ 1, 16 × 128, constant step)", "preset_seeds", 3),
+            ("`--utopia-margin 0.02`", "margin002", None),
+            ("`--anneal-lr`", "anneal", None),
+            ("`--envs-per-pref 32 --rollout-steps 64`", "n32", None),
+            ("`--augment 0.05`", "aug005", None),
+        ],
+    ),
+    "variants_1": lambda doc: variants(
+        doc,
+        [
+            ("preset", "preset_seeds", 1),
+            ("`--augment 0.01`", "aug001", None),
+            ("`--j-ub 400,100` (fixed utopia)", "fixed_utopia", None),
+            ("5 epochs × 32 minibatches", "e5x32", None),
+        ],
+    ),
+    "variants_17": lambda doc: variants(
+        doc,
+        [
+            ("preset (margin 0.1, μ 1)", "preset_seeds", None),
+            ("`--utopia-margin 0.05`", "margin005", None),
+            ("`--mu 5`", "mu5", None),
+            ("best of the last 5 (today's default)", "select5_seeds", None),
+        ],
+    ),
+    "front_w128": lambda doc: per_pref(doc, R["front_w128"]),
+    "front_w128_summary": lambda doc: two_directions(doc, R["front_w128"], paper=True),
+    "front_w128_fixed": t_fixed_utopia_w128,
+    "front_w128_fixed_summary": lambda doc: summary_rows(
+        doc,
+        [
+            ("estimated utopia", front_of(R["front_w128"]), None),
+            ("fixed (400, 100)", front_of(R["front_w128_fixed"]), None),
+        ],
+    ),
+    "front_w128_seed1": t_w128_seed1,
+    "front_w64": lambda doc: per_pref(doc, R["front_w64"]),
+    "front_w64_summary": lambda doc: two_directions(doc, R["front_w64"], paper=True),
+    "curves": t_curves,
+    "ablation_practical": lambda doc: ablation(doc, "ablation_practical"),
+    "ablation_practical_10x8": lambda doc: ablation(doc, "ablation_practical_10x8"),
+    "ablation_paper_v5": lambda doc: ablation(doc, "ablation_paper_v5"),
+    "ablation_paper_v5_10pct": lambda doc: ablation(doc, "ablation_paper_v5_10pct", long=False),
+    "ablation_paper_warm_1M": lambda doc: ablation(doc, "ablation_paper_warm_1M"),
+    "ablation_paper_warm_10pct": lambda doc: ablation(doc, "ablation_paper_warm_10pct", long=False),
+    "paper_fronts": t_paper_fronts,
+    "exploration_bandit": t_exploration_bandit,
+    "exploration_dst": t_exploration_dst,
+    "convergence": t_convergence,
+    "bench_practical": t_bench_practical,
+    "reference_ppo": t_reference_ppo,
+    "fronts_wall": t_fronts_wall,
+    "bench_env": t_bench_env,
+    "drift": t_drift,
+    "bench_engines": t_bench_engines,
+    "quiet_raw": t_quiet_raw,
+    "bench_throughput": t_bench_throughput,
+    "bench_processes": t_bench_processes,
+    "bench_cli": t_bench_cli,
+    "kuairand_ncis": lambda doc: kuairand(doc, "kuairand", "ncis"),
+    "kuairand_truth": lambda doc: kuairand(doc, "kuairand", "truth"),
+    "kuairand_seed1_truth": lambda doc: kuairand(doc, "kuairand_seed1", "truth"),
+    "kuairand_fig2": t_kuairand_fig2,
+    "kuairand_run": t_kuairand_run,
+}
+
+
+def v_kuairand_training(doc: Doc) -> str:
+    path = f"{R['kuairand']}/run.json"
+    c = load(path)["config"]
+    return doc.link(f"{num(c['steps'])} steps of {c['batch_size']} logged transitions", path)
+
+
+VALUES: dict[str, Callable[[Doc], str]] = {
+    "kuairand_training": v_kuairand_training,
+    "default_wall_range": v_default_wall_range,
+    "selection_ge7": v_selection_ge7,
+}
+
+BLOCK = re.compile(r"(<!-- table:([\w-]+) -->\n)(.*?)(<!-- /table -->)", re.S)
+INLINE = re.compile(r"(<!-- value:([\w-]+) -->)(.*?)(<!-- /value -->)", re.S)
+
+
+def documents(root: str = ROOT) -> list[str]:
+    paths = ["README.md"] + sorted(
+        os.path.relpath(p, root) for p in glob.glob(os.path.join(root, "docs", "*.md"))
+    )
+    return [p for p in paths if os.path.exists(os.path.join(root, p))]
+
+
+def render(text: str, path: str) -> tuple[str, list[str]]:
+    """`text` with every block regenerated, and the names of unknown blocks."""
+    doc, unknown = Doc(path), []
+
+    def table(m: re.Match) -> str:
+        fn = TABLES.get(m.group(2))
+        if fn is None:
+            unknown.append(m.group(2))
+            return m.group(0)
+        return f"{m.group(1)}{fn(doc)}\n{m.group(4)}"
+
+    def value(m: re.Match) -> str:
+        fn = VALUES.get(m.group(2))
+        if fn is None:
+            unknown.append(m.group(2))
+            return m.group(0)
+        return f"{m.group(1)}{fn(doc)}{m.group(4)}"
+
+    return INLINE.sub(value, BLOCK.sub(table, text)), unknown
+
+
+def main(argv=None) -> int:
+    global ROOT
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--check", action="store_true", help="write nothing; exit 1 if a block differs")
+    p.add_argument(
+        "--root", default=ROOT, help="the repository to read and write (default: this one)"
+    )
+    args = p.parse_args(argv)
+    ROOT = os.path.abspath(args.root)
+    load.cache_clear()
+    stale, bad = [], []
+    for path in documents(ROOT):
+        full = os.path.join(ROOT, path)
+        with open(full) as f:
+            text = f.read()
+        new, unknown = render(text, path)
+        bad += [f"{path}: unknown block {name!r}" for name in unknown]
+        if new != text:
+            stale.append(path)
+            if not args.check:
+                with open(full, "w") as f:
+                    f.write(new)
+    for line in bad:
+        print(f"error: {line}", file=sys.stderr)
+    if args.check and stale:
+        print(
+            f"error: generated blocks differ in {', '.join(stale)}; run python docs/tables.py",
+            file=sys.stderr,
+        )
+    return 1 if bad or (args.check and stale) else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,116 @@
+"""The documentation: its generated numbers match the committed results, its links resolve,
+and the README stays short."""
+
+import importlib.util
+import os
+import re
+
+import pytest
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def _tables():
+    spec = importlib.util.spec_from_file_location(
+        "docs_tables", os.path.join(ROOT, "docs", "tables.py")
+    )
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+tables = _tables()
+DOCS = tables.documents(ROOT)
+LINK = re.compile(r"!?\[(?:[^\]\[]|\[[^\]]*\])*\]\(([^)\s]+)\)")
+
+
+# Written alongside this documentation and linked from it before it lands; once it exists
+# its links are checked like every other (remove it from here then).
+LANDING_SEPARATELY = {"docs/extending.md"}
+
+
+def _text(path: str) -> str:
+    with open(os.path.join(ROOT, path)) as f:
+        return f.read()
+
+
+def _anchors(path: str) -> set[str]:
+    """GitHub's heading anchors of a markdown file."""
+    out = set()
+    in_code = False
+    for line in _text(path).splitlines():
+        if line.startswith("```"):
+            in_code = not in_code
+        if in_code or not line.startswith("#"):
+            continue
+        title = line.lstrip("#").strip().lower()
+        slug = re.sub(r"[^\w\- ]", "", title).replace(" ", "-")
+        out.add(slug)
+    return out
+
+
+def test_generated_blocks_match_the_committed_results(capsys):
+    assert tables.main(["--check", "--root", ROOT]) == 0, capsys.readouterr().err
+
+
+def test_check_fails_on_a_changed_number_and_restores_it():
+    text = _text("README.md")
+    start = text.index("<!-- table:glance -->")
+    end = text.index("<!-- /table -->", start)
+    block = text[start:end]
+    assert re.search(r"\d", block), "the glance table holds numbers"
+    tampered = text[:start] + re.sub(r"\[(\d)", r"[9\1", block, count=1) + text[end:]
+    assert tampered != text
+    rendered, unknown = tables.render(tampered, "README.md")
+    assert unknown == []
+    assert rendered == text
+
+
+def test_an_unknown_block_is_an_error():
+    _, unknown = tables.render("<!-- table:no_such_table -->\n<!-- /table -->\n", "README.md")
+    assert unknown == ["no_such_table"]
+
+
+def test_every_table_and_value_renders_from_the_results():
+    for name, fn in tables.TABLES.items():
+        out = fn(tables.Doc("docs/results.md"))
+        assert out.startswith("|"), name
+    for name, fn in tables.VALUES.items():
+        assert fn(tables.Doc("README.md")), name
+
+
+def test_readme_has_at_most_200_lines():
+    assert len(_text("README.md").splitlines()) <= 200
+
+
+def test_readme_starts_with_the_two_setup_commands():
+    text = _text("README.md")
+    first = text.index("```bash")
+    block = text[first : text.index("```", first + 3)]
+    assert (
+        'python3 -m venv .venv && . .venv/bin/activate && pip install -e ".[test]" '
+        "&& python -m wcac_jax.sweep --n-prefs 9" in block
+    )
+    assert (
+        ". .venv/bin/activate && ruff check . && ruff format --check . && python -m pytest" in block
+    )
+
+
+@pytest.mark.parametrize("doc", DOCS)
+def test_every_relative_link_resolves(doc):
+    bad = []
+    for target in LINK.findall(_text(doc)):
+        if re.match(r"^[a-z]+:", target):
+            bad.append(f"{target}: the documentation cites nothing outside the repository")
+            continue
+        path, _, anchor = target.partition("#")
+        full = os.path.normpath(os.path.join(ROOT, os.path.dirname(doc), path)) if path else None
+        if full is not None and not os.path.exists(full):
+            if os.path.relpath(full, ROOT) not in LANDING_SEPARATELY:
+                bad.append(f"{target}: no such file")
+            continue
+        if anchor:
+            md = os.path.relpath(full, ROOT) if full else doc
+            if md.endswith(".md") and anchor not in _anchors(md):
+                bad.append(f"{target}: no heading #{anchor} in {md}")
+    assert bad == [], f"{doc}: " + "; ".join(bad)
