@@ -1,8 +1,10 @@
 """The paper's recommendation experiment (Table 2 and Fig. 2) on a KuaiRand directory.
 
     python experiments/kuairand_table2.py --data DIR --out OUT [--quick] [--seed S]
+        [--version 27k|1k|pure]
 
-reads `DIR` (the real KuaiRand-27K files, or `python -m wcac_jax.recsys.synth`'s),
+reads `DIR` (real KuaiRand-27K, -1K or -Pure files, found by their names, or
+`python -m wcac_jax.recsys.synth`'s),
 builds the protocol's offline transitions, trains Behavior-Clone and the four
 actor-critics (the paper's method `wcac`, PDPG, MOAC, MOCHA; `wcac_jax.recsys.offline`)
 with the unified preference, and the paper's method with 7 preferences each leaning to
@@ -37,6 +39,7 @@ from wcac_jax.recsys import ncis as ncis_lib
 from wcac_jax.recsys import offline
 from wcac_jax.recsys.cli import ArgumentParser
 from wcac_jax.recsys.data import SIGNALS, DataError, Protocol, load
+from wcac_jax.recsys.kuairand import VERSIONS
 from wcac_jax.recsys.synth import MODEL_FILE, ResponseModel
 
 NAMES = {
@@ -162,10 +165,18 @@ def plot_fig2(fig2: dict, path: str) -> None:
     os.replace(path + ".tmp.png", path)
 
 
-def run(data_dir: str, out: str, cfg: offline.OfflineConfig, seed: int, log=print) -> dict:
-    """The whole experiment; returns `table.json`'s content."""
+def run(
+    data_dir: str,
+    out: str,
+    cfg: offline.OfflineConfig,
+    seed: int,
+    log=print,
+    version: str | None = None,
+) -> dict:
+    """The whole experiment; returns `table.json`'s content. `version` is the KuaiRand
+    layout (`27k`, `1k`, `pure`; by default found from the file names)."""
     t0 = time.perf_counter()
-    data = load(data_dir)
+    data = load(data_dir, version=version)
     t_load = time.perf_counter() - t0
     log(
         f"loaded {data.n_rows} rows ({data.n_train} train), state {data.state_dim} dims "
@@ -299,6 +310,12 @@ def main(argv=None) -> int:
     parser = ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--data", required=True, help="a KuaiRand directory (real or synthetic)")
     parser.add_argument("--out", required=True, help="output directory")
+    parser.add_argument(
+        "--version",
+        choices=VERSIONS,
+        default=None,
+        help="the KuaiRand layout (default: found from the file names)",
+    )
     parser.add_argument("--quick", action="store_true", help="tiny settings (tests)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--steps", type=int, default=None, help="override the update steps")
@@ -314,7 +331,7 @@ def main(argv=None) -> int:
         print(f"error: {err}", file=sys.stderr)
         return 2
     try:
-        run(args.data, args.out, cfg, args.seed)
+        run(args.data, args.out, cfg, args.seed, version=args.version)
     except DataError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
