@@ -18,7 +18,9 @@ by its true expected signals. Writes to `OUT`:
 - `run.json`: configuration, sizes and wall-clock times.
 
 Bad input (a missing/malformed KuaiRand file, an unwritable `--out`) prints one `error:`
-line and exits 2 before anything is written.
+line and exits 2 before anything is written; a non-finite training loss (or mean
+action) prints one `error:` line naming the method and the first such step, and exits 3
+without writing a table.
 """
 
 from __future__ import annotations
@@ -194,6 +196,7 @@ def run(
     t = time.perf_counter()
     bc_train, bc_act = offline.make_train_bc(cfg, data)
     bc_params, bc_losses = jax.jit(bc_train)(keys[0], data)
+    offline.check_finite(NAMES["bc"], "loss", bc_losses)
     behaviour = _test_actions(bc_act, bc_params, data, prefs_axis=False)
     times["bc"] = time.perf_counter() - t
     log(
@@ -211,6 +214,8 @@ def run(
         pkeys = jax.random.split(keys[i], prefs.shape[0])
         state, metrics = sweep(pkeys, jnp.asarray(prefs, jnp.float32), data, obj)
         jax.block_until_ready(state)
+        offline.check_finite(NAMES[method], "critic loss", metrics["train/critic_loss"])
+        offline.check_finite(NAMES[method], "mean action", metrics["train/mean_action"])
         actions[method] = _test_actions(act, state.actor, data, prefs_axis=True)
         times[method] = time.perf_counter() - t
         curves[method] = {
@@ -335,6 +340,9 @@ def main(argv=None) -> int:
     except DataError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
+    except offline.TrainingError as err:
+        print(f"error: {err}; nothing written", file=sys.stderr)
+        return 3
     return 0
 
 

@@ -1,5 +1,6 @@
 """The Table 2 / Fig. 2 experiment end to end at `--quick`, and its bad input."""
 
+import dataclasses
 import json
 import math
 import os
@@ -105,3 +106,17 @@ def test_bad_input_one_line_exit_2_nothing_written(tmp_path, capsys, run):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and f"{str(a_file)!r} is not a directory" in err[0]
     assert a_file.read_text() == ""
+
+
+def test_non_finite_training_loss_exit_3_nothing_written(tmp_path, capsys, monkeypatch, run):
+    """A step size far too large makes Behavior-Clone's loss NaN at its second step: the
+    run stops with one line naming it, exit status 3, and writes no table."""
+    data_dir, _ = run
+    monkeypatch.setattr(
+        kuairand_table2, "QUICK", dataclasses.replace(kuairand_table2.QUICK, critic_lr=1e30)
+    )
+    out = tmp_path / "out"
+    assert kuairand_table2.main(["--data", data_dir, "--out", str(out), "--quick"]) == 3
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["error: Behavior-Clone: loss is nan at step 2 of 40; nothing written"]
+    assert not out.exists()

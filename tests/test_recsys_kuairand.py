@@ -165,3 +165,138 @@ def test_cli_reports_rows_users_episodes(version, capsys):
         f"{rows / users:.2f}, 10 candidates, state {24 + 6 * 13} dims"
     )
     assert data_lib.main([_fixture(version), "--version", version, "--candidates", "10"]) == 0
+
+
+def _corrupt(tmp_path, version, name, edit):
+    """A copy of a fixture with `edit(df)` applied to the file `name`."""
+    d = tmp_path / version
+    shutil.copytree(_fixture(version), d)
+    df = pd.read_csv(d / name)
+    edit(df)
+    df.to_csv(d / name, index=False)
+    return str(d)
+
+
+def _cli_error(d, capsys):
+    code = data_lib.main([d, "--candidates", "10", "--history", "3"])
+    err = capsys.readouterr().err.splitlines()
+    assert code == 2 and len(err) == 1, (code, err)
+    return err[0]
+
+
+def _set(column, row, value):
+    def edit(df):
+        if not isinstance(value, int | np.integer):
+            df[column] = df[column].astype(object if isinstance(value, str) else float)
+        df.loc[row, column] = value
+
+    return edit
+
+
+PURE = kuairand.LAYOUTS["pure"]
+
+
+@pytest.mark.parametrize(
+    "column, row, value, problem",
+    [
+        ("play_time_ms", 7, np.inf, "non-finite value inf"),
+        ("play_time_ms", 7, -np.inf, "non-finite value -inf"),
+        ("play_time_ms", 7, np.nan, "missing value"),
+        ("play_time_ms", 7, -5, "value below 0: -5"),
+        ("time_ms", 11, -1, "value below 0: -1"),
+        ("is_like", 3, 2, "value outside {0, 1}: 2"),
+        ("is_hate", 3, -1, "value outside {0, 1}: -1"),
+        ("is_click", 5, 0.5, "float value where KuaiRand has int64: 0.5"),
+        ("video_id", 9, 12.5, "float value where KuaiRand has int64: 12.5"),
+        ("user_id", 9, "u9", "non-numeric value 'u9'"),
+    ],
+)
+def test_bad_log_value_one_line_naming_file_column_row(
+    tmp_path, capsys, column, row, value, problem
+):
+    d = _corrupt(tmp_path, "pure", PURE.log, _set(column, row, value))
+    want = f"error: {os.path.join(d, PURE.log)}: column {column!r}: {problem} (data row {row + 1})"
+    assert _cli_error(d, capsys) == want
+
+
+def test_float_ids_are_named_as_floats_not_as_an_empty_split(tmp_path, capsys):
+    """A log rewritten with float IDs (`12.0`): the message says so."""
+
+    def as_float(df):
+        df["video_id"] = df["video_id"].astype(float)
+
+    d = _corrupt(tmp_path, "pure", PURE.log, as_float)
+    first = pd.read_csv(_fixture("pure") + "/" + PURE.log)["video_id"][0]
+    assert _cli_error(d, capsys) == (
+        f"error: {os.path.join(d, PURE.log)}: column 'video_id': float value where "
+        f"KuaiRand has int64: {float(first)!r} (data row 1)"
+    )
+
+
+def _candidates():
+    return data_lib.load(_fixture("pure"), SMALL).video_ids
+
+
+def _row_of_candidate(name):
+    df = pd.read_csv(os.path.join(_fixture("pure"), name))
+    return int(np.flatnonzero(df["video_id"].isin(_candidates()))[0])
+
+
+@pytest.mark.parametrize(
+    "name, column, value, problem",
+    [
+        (PURE.user, "onehot_feat5", np.inf, "non-finite value inf"),
+        (PURE.user, "onehot_feat5", "x", "non-numeric value 'x'"),
+        (PURE.user, "user_id", 3.5, "float value where KuaiRand has int64: 3.5"),
+        (PURE.video_basic, "video_duration", np.inf, "non-finite value inf"),
+        (PURE.video_basic, "video_id", -3, "value below 0: -3"),
+        (PURE.video_statistic[0], "play_duration", -np.inf, "non-finite value -inf"),
+    ],
+)
+def test_bad_feature_value_one_line(tmp_path, capsys, name, column, value, problem):
+    row = 2 if name == PURE.user else _row_of_candidate(name)
+    d = _corrupt(tmp_path, "pure", name, _set(column, row, value))
+    want = f"error: {os.path.join(d, name)}: column {column!r}: {problem} (data row {row + 1})"
+    assert _cli_error(d, capsys) == want
+
+
+@pytest.mark.parametrize(
+    "name, column, what",
+    [
+        (PURE.user, "onehot_feat2", "the log's users"),
+        (PURE.user, "fans_user_num_range", "the log's users"),
+        (PURE.video_basic, "music_type", "the candidate videos"),
+        (PURE.video_statistic[0], "like_cnt", "the candidate videos"),
+    ],
+)
+def test_all_missing_feature_column_one_line(tmp_path, capsys, name, column, what):
+    def blank(df):
+        df[column] = np.nan
+
+    d = _corrupt(tmp_path, "pure", name, blank)
+    row = 1 if name == PURE.user else _row_of_candidate(name) + 1
+    # the example row is the first row the protocol uses: the first of the log's users
+    if name == PURE.user:
+        users = pd.read_csv(os.path.join(d, name))["user_id"]
+        first = data_lib.load(_fixture("pure"), SMALL).user_ids[0]
+        row = int(np.flatnonzero(users == first)[0]) + 1
+    want = (
+        f"error: {os.path.join(d, name)}: column {column!r}: every value is missing for "
+        f"{what} (data row {row}, ...)"
+    )
+    assert _cli_error(d, capsys) == want
+
+
+def test_cli_exit_status_2(tmp_path):
+    d = _corrupt(tmp_path, "pure", PURE.log, _set("is_like", 0, 7))
+    proc = subprocess.run(
+        [sys.executable, "-m", "wcac_jax.recsys.data", d, "--candidates", "10"],
+        capture_output=True,
+        text=True,
+        env={**os.environ, "PYTHONPATH": ROOT},
+    )
+    assert proc.returncode == 2 and proc.stdout == ""
+    assert proc.stderr.splitlines() == [
+        f"error: {os.path.join(d, PURE.log)}: column 'is_like': value outside {{0, 1}}: 7 "
+        "(data row 1)"
+    ]

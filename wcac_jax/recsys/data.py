@@ -21,12 +21,17 @@
 
 The 6 label-encoded user features are our reading of "the 6 string/bucket features":
 `user_active_degree`, `is_video_author` and the four `*_range` buckets. Missing feature
-values (NaN, and `-124`) are filled with the column's training mean, i.e. 0 after
-normalisation.
+values (empty or NaN, and `-124`) are filled with the column's training mean, i.e. 0
+after normalisation.
 
-Bad input (a missing file or column, a non-numeric or missing value where the protocol
-needs a number) raises `DataError` naming the file and column; on the command line
-(`python -m wcac_jax.recsys.data DIR`) that is one `error:` line and exit status 2.
+Bad input is rejected, never passed on (`kuairand`'s checks): a missing file or column;
+in the log, a missing, non-numeric, infinite or float value (KuaiRand's log columns are
+int64: a `video_id` written `12.5` or `12.0` is named as a float), a signal outside
+{0, 1}, a negative id, `time_ms` or `play_time_ms`; in the features the protocol uses,
+a non-numeric or infinite value, or a column with no value at all for the log's users
+or the candidate videos. Each raises `DataError` with one line naming the file, the
+column and an example data row; on the command line (`python -m wcac_jax.recsys.data
+DIR`) that is one `error:` line and exit status 2.
 """
 
 from __future__ import annotations
@@ -115,7 +120,8 @@ class ProtocolConfig:
 class Protocol:
     """The offline data set: per-row arrays and the tables states are built from.
 
-    Per-row arrays (`n` rows in log order, `n_train` first ones for training):
+    Per-row arrays (`n` rows, each user's consecutive and in time order, `n_train`
+    first ones for training):
       user_index: `[n]` row of `user_table`; action: `[n]` candidate index;
       reward: `[n, 7]` (`SIGNALS` order, raw: hate is a rate to be minimised);
       done: `[n]` 1 where the next row belongs to another user (or there is none);
@@ -126,6 +132,8 @@ class Protocol:
       features; cand_state: `[6 C]` the state's (normalised) candidate block;
       hist_mean, hist_std: `[H, 6]` normalisation of the history block;
       action_features: `[C, 6]` candidate features z-normalised across candidates.
+    Ids (host numpy arrays, int64): user_ids `[U]` of `user_table`'s rows; video_ids
+      `[C]` of the candidates, most viewed first.
     """
 
     user_index: chex.Array
@@ -140,8 +148,10 @@ class Protocol:
     hist_std: chex.Array
     action_features: chex.Array
     n_train: int = struct.field(pytree_node=False)
-    user_ids: np.ndarray = struct.field(pytree_node=False)
-    video_ids: np.ndarray = struct.field(pytree_node=False)
+    # leaves, not static fields: jit compares static fields with `==` when it meets a
+    # second Protocol, which arrays cannot answer (a second run in one process failed)
+    user_ids: np.ndarray
+    video_ids: np.ndarray
 
     @property
     def n_rows(self) -> int:
@@ -185,7 +195,9 @@ def read_log(path: str, chunksize: int = 2_000_000, keep_videos=None) -> pd.Data
     parts = []
     for chunk in kuairand.chunks(path, LOG_COLUMNS, chunksize):
         for col in LOG_COLUMNS:
-            chunk[col] = kuairand.numbers(chunk, col, path, allow_missing=False)
+            binary = col.startswith("is_")
+            low = None if binary else 0
+            chunk[col] = kuairand.integers(chunk, col, path, low=low, binary=binary)
         if keep_videos is not None:
             chunk = chunk[chunk["video_id"].isin(keep_videos)]
         parts.append(chunk)
@@ -214,7 +226,7 @@ def by_user_in_time(user_id: np.ndarray, time_ms: np.ndarray) -> np.ndarray:
 def _top_videos(path: str, n: int, chunksize: int) -> np.ndarray:
     counts = None
     for chunk in kuairand.chunks(path, ("video_id",), chunksize):
-        c = kuairand.numbers(chunk, "video_id", path, allow_missing=False).value_counts()
+        c = kuairand.integers(chunk, "video_id", path, low=0).value_counts()
         counts = c if counts is None else counts.add(c, fill_value=0)
     if counts is None or len(counts) == 0:
         raise DataError(f"{path}: no rows")
@@ -228,48 +240,67 @@ def _top_videos(path: str, n: int, chunksize: int) -> np.ndarray:
 def _user_table(directory: str, layout: Layout, user_ids: np.ndarray) -> np.ndarray:
     path = kuairand.path(directory, layout.user)
     df = kuairand.read(path, ("user_id", *USER_CATEGORICAL, *USER_ONEHOT))
-    df["user_id"] = kuairand.numbers(df, "user_id", path, allow_missing=False)
-    df = df.drop_duplicates("user_id").set_index("user_id")
-    missing = np.setdiff1d(user_ids, df.index.to_numpy())
-    if missing.size:
-        raise DataError(f"{path}: column 'user_id': no row for user {missing[0]} of the log")
-    df = df.loc[user_ids]
+    df["user_id"] = kuairand.integers(df, "user_id", path, low=0)
+    df = df.drop_duplicates("user_id")
+    pos = pd.Index(df["user_id"]).get_indexer(user_ids)
+    if (pos < 0).any():
+        missing = user_ids[np.argmax(pos < 0)]
+        raise DataError(f"{path}: column 'user_id': no row for user {missing} of the log")
+    df = df.iloc[pos]  # the log's users, in `user_ids` order; the index is the data row
+    what = "the log's users"
     cols = []
     for col in USER_CATEGORICAL:  # label-encoded; the missing value is a label of its own
+        kuairand.not_all_missing(df[col], path, col, what)
         cols.append(pd.factorize(df[col].astype(str), sort=True)[0].astype(np.float64))
     for col in USER_ONEHOT:
-        x = kuairand.numbers(df, col, path, allow_missing=True).to_numpy(np.float64, copy=True)
+        x = kuairand.features(df, col, path)
         x[x == -124] = np.nan
-        cols.append(x)
+        kuairand.not_all_missing(x, path, col, what)
+        cols.append(x.to_numpy(np.float64, copy=True))
     return np.stack(cols, axis=1)
+
+
+def _candidate_rows(frames, path: str, video_ids: np.ndarray) -> pd.DataFrame:
+    """The rows of the candidate videos (first row per video), indexed by data row."""
+    rows = pd.concat(frames).drop_duplicates("video_id")
+    if not len(rows):
+        raise DataError(
+            f"{path}: column 'video_id': no row for any of the {len(video_ids)} candidate "
+            f"videos (e.g. video {video_ids[0]})"
+        )
+    return rows
 
 
 def _video_table(directory: str, layout: Layout, video_ids: np.ndarray) -> np.ndarray:
     path = kuairand.path(directory, layout.video_basic)
-    basic = pd.concat(
-        [
-            c[c["video_id"].isin(video_ids)]
-            for c in kuairand.chunks(path, VIDEO_BASIC_COLUMNS, 2_000_000)
-        ]
-    )
-    basic["video_id"] = kuairand.numbers(basic, "video_id", path, allow_missing=False)
+    what = "the candidate videos"
+    frames = []
+    for chunk in kuairand.chunks(path, VIDEO_BASIC_COLUMNS, 2_000_000):
+        chunk["video_id"] = kuairand.integers(chunk, "video_id", path, low=0)
+        frames.append(chunk[chunk["video_id"].isin(video_ids)])
+    basic = _candidate_rows(frames, path, video_ids)
     for col in ("video_duration", "music_type"):
-        basic[col] = kuairand.numbers(basic, col, path, allow_missing=True)
+        basic[col] = kuairand.features(basic, col, path)
     first_tag = basic["tag"].astype("string").str.split(",").str[0].str.strip()
-    first_tag = pd.DataFrame({"tag": first_tag})
-    basic["tag"] = kuairand.numbers(first_tag, "tag", path, allow_missing=True)
-    basic = basic.drop_duplicates("video_id").set_index("video_id")
+    basic["tag"] = kuairand.features(pd.DataFrame({"tag": first_tag}), "tag", path)
+    for col in VIDEO_BASIC_COLUMNS[1:]:
+        kuairand.not_all_missing(basic[col], path, col, what)
+    basic = basic.set_index("video_id")
 
     paths = [kuairand.path(directory, name) for name in layout.video_statistic]
     stats = []
-    for p in paths:
+    for part, p in enumerate(paths):
         for chunk in kuairand.chunks(p, VIDEO_STAT_COLUMNS, 2_000_000):
-            chunk["video_id"] = kuairand.numbers(chunk, "video_id", p, allow_missing=False)
+            chunk["video_id"] = kuairand.integers(chunk, "video_id", p, low=0)
             chunk = chunk[chunk["video_id"].isin(video_ids)].copy()
             for col in VIDEO_STAT_COLUMNS[1:]:
-                chunk[col] = kuairand.numbers(chunk, col, p, allow_missing=True)
+                chunk[col] = kuairand.features(chunk, col, p)
+            chunk["part"] = part
             stats.append(chunk)
-    stat = pd.concat(stats).drop_duplicates("video_id").set_index("video_id")
+    stat = _candidate_rows(stats, " and ".join(paths), video_ids)
+    for col in VIDEO_STAT_COLUMNS[1:]:
+        kuairand.not_all_missing(stat[col], paths[stat["part"].iloc[0]], col, what)
+    stat = stat.set_index("video_id")
     table = pd.concat([basic.reindex(video_ids), stat.reindex(video_ids)], axis=1)
     x = table[list(VIDEO_FEATURES)].to_numpy(np.float64)
     return np.where(np.isnan(x), np.nanmean(x, axis=0), x)

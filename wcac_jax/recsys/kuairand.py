@@ -163,7 +163,8 @@ def chunks(p: str, columns, chunksize: int):
 def _fail(p: str, column: str, problem: str, s: pd.Series, bad, show_value=True) -> None:
     """Raises the one-line `DataError` for the first row where `bad` holds."""
     i = np.flatnonzero(np.asarray(bad))[0]
-    value = f" {s.iloc[i]!r}" if show_value else ""
+    v = s.iloc[i]
+    value = f" {v.item() if isinstance(v, np.generic) else v!r}" if show_value else ""
     raise DataError(f"{p}: column {column!r}: {problem}{value} (data row {s.index[i] + 1})")
 
 
@@ -184,3 +185,52 @@ def numbers(df: pd.DataFrame, column: str, p: str, allow_missing: bool) -> pd.Se
     if not allow_missing and conv.isna().any():
         _fail(p, column, "missing value", s, conv.isna(), show_value=False)
     return conv
+
+
+def _finite(conv: pd.Series, s: pd.Series, p: str, column: str) -> None:
+    bad = np.isinf(conv.to_numpy(np.float64, na_value=np.nan))
+    if bad.any():
+        _fail(p, column, "non-finite value", s, bad)
+
+
+def integers(
+    df: pd.DataFrame, column: str, p: str, low: int | None = None, binary: bool = False
+) -> pd.Series:
+    """The column as KuaiRand's int64: a missing, non-numeric, non-finite or fractional
+    value, a float column (e.g. `12.0` for an ID), a value below `low` or (if `binary`)
+    outside {0, 1} is an error.
+
+    Returns:
+      the column, int64, with the frame's index.
+    """
+    s = df[column]
+    conv = numbers(df, column, p, allow_missing=False)
+    _finite(conv, s, p, column)
+    if not pd.api.types.is_integer_dtype(conv):
+        x = conv.to_numpy(np.float64)
+        frac = x != np.round(x)
+        _fail(p, column, "float value where KuaiRand has int64:", s, frac if frac.any() else [True])
+    if binary and not conv.isin((0, 1)).all():
+        _fail(p, column, "value outside {0, 1}:", s, ~conv.isin((0, 1)))
+    if low is not None and (conv < low).any():
+        _fail(p, column, f"value below {low}:", s, conv < low)
+    return conv.astype(np.int64)
+
+
+def features(df: pd.DataFrame, column: str, p: str) -> pd.Series:
+    """The column as float64 numbers, missing values as NaN; a non-numeric or infinite
+    value is an error."""
+    s = df[column]
+    conv = numbers(df, column, p, allow_missing=True)
+    _finite(conv, s, p, column)
+    return conv.astype(np.float64)
+
+
+def not_all_missing(x: pd.Series, p: str, column: str, what: str) -> None:
+    """An error if every value of `x` (a feature over the rows the protocol uses, indexed
+    by data row) is missing: the column would carry nothing."""
+    if len(x) and x.isna().all():
+        raise DataError(
+            f"{p}: column {column!r}: every value is missing for {what} "
+            f"(data row {x.index[0] + 1}, ...)"
+        )
