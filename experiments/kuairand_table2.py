@@ -1,22 +1,30 @@
 """The paper's recommendation experiment (Table 2 and Fig. 2) on a KuaiRand directory.
 
     python experiments/kuairand_table2.py --data DIR --out OUT [--quick] [--seed S]
+        [--version 27k|1k|pure] [--overwrite]
 
-reads `DIR` (the real KuaiRand-27K files, or `python -m wcac_jax.recsys.synth`'s),
-builds the protocol's offline transitions, trains Behavior-Clone and the four
-actor-critics (the paper's method `wcac`, PDPG, MOAC, MOCHA; `wcac_jax.recsys.offline`)
-with the unified preference, and the paper's method with 7 preferences each leaning to
-one signal (Fig. 2) in the same compiled program, then scores every policy on the test
-rows by NCIS against Behavior-Clone and, when `DIR` holds the generator's response model,
-by its true expected signals. Writes to `OUT`:
+reads `DIR` (real KuaiRand-27K, -1K or -Pure files, found by their names, or
+`python -m wcac_jax.recsys.synth`'s), builds the protocol's offline transitions,
+trains Behavior-Clone and the four actor-critics (the paper's method `wcac`, PDPG,
+MOAC, MOCHA; `wcac_jax.recsys.offline`) with the unified preference, and the paper's
+method with 7 preferences each leaning to one signal (Fig. 2) in the same compiled
+program, then scores every policy on the test rows by NCIS against Behavior-Clone and,
+when `DIR` holds the generator's response model, by its true expected signals. Writes to `OUT`:
 
 - `table.json`: `{"methods": {name: {"ncis": {signal: v}, "vs_bc": {signal: %},
   "truth": {signal: v}}}, "logged": {...}}` (`truth` only on synthetic data);
 - `table.md`: the Table 2 analogue; `fig2.png`, `fig2.json`: the Fig. 2 analogue;
 - `run.json`: configuration, sizes and wall-clock times.
 
-Bad input (a missing/malformed KuaiRand file, an unwritable `--out`) prints one `error:`
-line and exits 2 before anything is written.
+`OUT` must be new or empty unless `--overwrite` is given; then it is replaced whole (no
+file of the previous results is kept). The results are written into a new directory
+beside `OUT` and renamed into place, so an interrupted run leaves the previous results
+as they were.
+
+Bad input (a missing/malformed KuaiRand file, an unwritable or non-empty `--out`)
+prints one `error:` line and exits 2 before anything is written; a non-finite training
+loss (or mean action) prints one `error:` line naming the method and the first such
+step, and exits 3 without writing anything.
 """
 
 from __future__ import annotations
@@ -24,7 +32,9 @@ from __future__ import annotations
 import json
 import os
 import resource
+import shutil
 import sys
+import tempfile
 import time
 from dataclasses import asdict, replace
 
@@ -37,6 +47,7 @@ from wcac_jax.recsys import ncis as ncis_lib
 from wcac_jax.recsys import offline
 from wcac_jax.recsys.cli import ArgumentParser
 from wcac_jax.recsys.data import SIGNALS, DataError, Protocol, load
+from wcac_jax.recsys.kuairand import VERSIONS
 from wcac_jax.recsys.synth import MODEL_FILE, ResponseModel
 
 NAMES = {
@@ -87,13 +98,6 @@ def _truth_tables(model: ResponseModel, data: Protocol):
     uniq, inv = np.unique(users, return_inverse=True)
     table = model.expected(data.user_ids[uniq][:, None], data.video_ids[None, :])
     return jnp.asarray(table[inv], jnp.float32)
-
-
-def _write(path: str, text: str) -> None:
-    tmp = path + ".tmp"
-    with open(tmp, "w") as f:
-        f.write(text)
-    os.replace(tmp, path)
 
 
 def _percent(diff: float, ref: float):
@@ -162,10 +166,18 @@ def plot_fig2(fig2: dict, path: str) -> None:
     os.replace(path + ".tmp.png", path)
 
 
-def run(data_dir: str, out: str, cfg: offline.OfflineConfig, seed: int, log=print) -> dict:
-    """The whole experiment; returns `table.json`'s content."""
+def run(
+    data_dir: str,
+    out: str,
+    cfg: offline.OfflineConfig,
+    seed: int,
+    log=print,
+    version: str | None = None,
+) -> dict:
+    """The whole experiment; returns `table.json`'s content. `version` is the KuaiRand
+    layout (`27k`, `1k`, `pure`; by default found from the file names)."""
     t0 = time.perf_counter()
-    data = load(data_dir)
+    data = load(data_dir, version=version)
     t_load = time.perf_counter() - t0
     log(
         f"loaded {data.n_rows} rows ({data.n_train} train), state {data.state_dim} dims "
@@ -183,6 +195,7 @@ def run(data_dir: str, out: str, cfg: offline.OfflineConfig, seed: int, log=prin
     t = time.perf_counter()
     bc_train, bc_act = offline.make_train_bc(cfg, data)
     bc_params, bc_losses = jax.jit(bc_train)(keys[0], data)
+    offline.check_finite(NAMES["bc"], "loss", bc_losses)
     behaviour = _test_actions(bc_act, bc_params, data, prefs_axis=False)
     times["bc"] = time.perf_counter() - t
     log(
@@ -200,6 +213,8 @@ def run(data_dir: str, out: str, cfg: offline.OfflineConfig, seed: int, log=prin
         pkeys = jax.random.split(keys[i], prefs.shape[0])
         state, metrics = sweep(pkeys, jnp.asarray(prefs, jnp.float32), data, obj)
         jax.block_until_ready(state)
+        offline.check_finite(NAMES[method], "critic loss", metrics["train/critic_loss"])
+        offline.check_finite(NAMES[method], "mean action", metrics["train/mean_action"])
         actions[method] = _test_actions(act, state.actor, data, prefs_axis=True)
         times[method] = time.perf_counter() - t
         curves[method] = {
@@ -264,11 +279,6 @@ def run(data_dir: str, out: str, cfg: offline.OfflineConfig, seed: int, log=prin
 
     total = time.perf_counter() - t0
     times["total"] = total
-    os.makedirs(out, exist_ok=True)
-    _write(os.path.join(out, "table.json"), json.dumps(table, indent=2) + "\n")
-    _write(os.path.join(out, "table.md"), markdown(table, truth_table is not None))
-    _write(os.path.join(out, "fig2.json"), json.dumps(fig2, indent=2) + "\n")
-    plot_fig2(fig2, os.path.join(out, "fig2.png"))
     run_info = {
         "data": os.path.abspath(data_dir),
         "synthetic": model is not None,
@@ -290,15 +300,64 @@ def run(data_dir: str, out: str, cfg: offline.OfflineConfig, seed: int, log=prin
         "cpu_count": os.cpu_count(),
         "load_average_at_end": list(os.getloadavg()),
     }
-    _write(os.path.join(out, "run.json"), json.dumps(run_info, indent=2) + "\n")
+    files = {
+        "table.json": json.dumps(table, indent=2) + "\n",
+        "table.md": markdown(table, truth_table is not None),
+        "fig2.json": json.dumps(fig2, indent=2) + "\n",
+        "run.json": json.dumps(run_info, indent=2) + "\n",
+    }
+    write_results(out, files, fig2)
     log(f"done in {total:.1f}s; wrote {out}")
     return table
+
+
+def write_results(out: str, files: dict[str, str], fig2: dict) -> None:
+    """Writes `files` (`{name: text}`) and `fig2.png` into a new directory beside `out`,
+    then renames it to `out`, replacing a previous `out` whole (nothing of it is kept).
+
+    Until the final renames the previous results stay as they were, so an interrupted
+    write leaves them whole (and removes its own partial directory when it can).
+    Missing parents of `out` are made.
+    """
+    out = os.path.abspath(out)
+    parent, name = os.path.split(out)
+    os.makedirs(parent, exist_ok=True)
+    tmp = tempfile.mkdtemp(dir=parent, prefix=f".{name}.tmp-")
+    try:
+        for fname, text in files.items():
+            with open(os.path.join(tmp, fname), "w") as f:
+                f.write(text)
+        plot_fig2(fig2, os.path.join(tmp, "fig2.png"))
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o777 & ~umask)  # as os.makedirs would have made it
+        if os.path.lexists(out):
+            # renaming a directory onto an empty one replaces it: the old results move
+            # aside in one step, and go only once the new ones are in place
+            old = tempfile.mkdtemp(dir=parent, prefix=f".{name}.old-")
+            os.rename(out, old)
+            os.rename(tmp, out)
+            shutil.rmtree(old)
+        else:
+            os.rename(tmp, out)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
 
 
 def main(argv=None) -> int:
     parser = ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--data", required=True, help="a KuaiRand directory (real or synthetic)")
-    parser.add_argument("--out", required=True, help="output directory")
+    parser.add_argument(
+        "--out", required=True, help="output directory (new or empty, unless --overwrite)"
+    )
+    parser.add_argument("--overwrite", action="store_true", help="replace a non-empty --out whole")
+    parser.add_argument(
+        "--version",
+        choices=VERSIONS,
+        default=None,
+        help="the KuaiRand layout (default: found from the file names)",
+    )
     parser.add_argument("--quick", action="store_true", help="tiny settings (tests)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--steps", type=int, default=None, help="override the update steps")
@@ -310,14 +369,24 @@ def main(argv=None) -> int:
         problem = unwritable_dir(args.out)
         if problem:
             raise ValueError(f"--out {args.out!r} can't be written: {problem}")
+        held = sorted(os.listdir(args.out)) if os.path.isdir(args.out) else []
+        if held and not args.overwrite:
+            shown = ", ".join(held[:3]) + (", ..." if len(held) > 3 else "")
+            raise ValueError(
+                f"--out {args.out!r} is not empty (holds {shown}); "
+                "pass --overwrite to replace it whole"
+            )
     except ValueError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
     try:
-        run(args.data, args.out, cfg, args.seed)
+        run(args.data, args.out, cfg, args.seed, version=args.version)
     except DataError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
+    except offline.TrainingError as err:
+        print(f"error: {err}; nothing written", file=sys.stderr)
+        return 3
     return 0
 
 

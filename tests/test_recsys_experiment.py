@@ -1,9 +1,11 @@
 """The Table 2 / Fig. 2 experiment end to end at `--quick`, and its bad input."""
 
+import dataclasses
 import json
 import math
 import os
 import sys
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -105,3 +107,74 @@ def test_bad_input_one_line_exit_2_nothing_written(tmp_path, capsys, run):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and f"{str(a_file)!r} is not a directory" in err[0]
     assert a_file.read_text() == ""
+
+
+def test_non_finite_training_loss_exit_3_nothing_written(tmp_path, capsys, monkeypatch, run):
+    """A step size far too large makes Behavior-Clone's loss NaN at its second step: the
+    run stops with one line naming it, exit status 3, and writes no table."""
+    data_dir, _ = run
+    monkeypatch.setattr(
+        kuairand_table2, "QUICK", dataclasses.replace(kuairand_table2.QUICK, critic_lr=1e30)
+    )
+    out = tmp_path / "out"
+    assert kuairand_table2.main(["--data", data_dir, "--out", str(out), "--quick"]) == 3
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["error: Behavior-Clone: loss is nan at step 2 of 40; nothing written"]
+    assert not out.exists()
+
+
+def _tree(d):
+    return {p.relative_to(d): p.read_bytes() for p in sorted(d.rglob("*")) if p.is_file()}
+
+
+@pytest.fixture
+def old_results(tmp_path):
+    """A results directory of an earlier run, with a seed sub-directory."""
+    out = tmp_path / "results" / "kuairand"
+    (out / "seed1").mkdir(parents=True)
+    (out / "table.json").write_text('{"old": 1}\n')
+    (out / "seed1" / "table.json").write_text('{"old": 2}\n')
+    return out
+
+
+def test_non_empty_out_refused_unless_overwrite(run, old_results, capsys):
+    data_dir, _ = run
+    before = _tree(old_results)
+    assert kuairand_table2.main(["--data", data_dir, "--out", str(old_results), "--quick"]) == 2
+    assert capsys.readouterr().err.splitlines() == [
+        f"error: --out {str(old_results)!r} is not empty (holds seed1, table.json); "
+        "pass --overwrite to replace it whole"
+    ]
+    assert _tree(old_results) == before
+
+
+def test_overwrite_replaces_out_whole(run, old_results, monkeypatch):
+    data_dir, out = run
+    fig2 = json.load(open(os.path.join(out, "fig2.json")))
+    calls = []
+
+    def fake_run(data, out, cfg, seed, version=None):  # the write of a finished run
+        calls.append(data)
+        kuairand_table2.write_results(out, {"table.json": '{"new": 1}\n'}, fig2)
+
+    monkeypatch.setattr(kuairand_table2, "run", fake_run)
+    argv = ["--data", data_dir, "--out", str(old_results), "--quick", "--overwrite"]
+    assert kuairand_table2.main(argv) == 0 and calls == [data_dir]
+    assert set(_tree(old_results)) == {Path("table.json"), Path("fig2.png")}  # no seed1
+    assert (old_results / "table.json").read_text() == '{"new": 1}\n'
+    assert os.listdir(old_results.parent) == ["kuairand"]  # no temporary directory left
+
+
+def test_interrupted_write_leaves_the_old_results_whole(run, old_results, monkeypatch):
+    _, out = run
+    fig2 = json.load(open(os.path.join(out, "fig2.json")))
+    before = _tree(old_results)
+
+    def interrupted(fig2, path):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(kuairand_table2, "plot_fig2", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        kuairand_table2.write_results(str(old_results), {"table.json": "{}\n"}, fig2)
+    assert _tree(old_results) == before
+    assert os.listdir(old_results.parent) == ["kuairand"]

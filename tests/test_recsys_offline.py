@@ -1,6 +1,7 @@
 """The offline actor-critics: formulas against hand-computed values, each method's
 update on a tiny batch against its rule, and learning on a problem with a known answer."""
 
+import dataclasses
 import functools
 
 import jax
@@ -241,3 +242,32 @@ def test_behavior_clone_learns_a_deterministic_logging_policy():
     params, losses = jax.jit(train)(jax.random.key(0), data)
     pred = np.asarray(act(params, offline.net_input(data, jnp.arange(n))))
     assert (pred == action).mean() > 0.95 and losses[-1] < losses[0]
+
+
+def test_check_finite_names_the_first_non_finite_step():
+    offline.check_finite("m", "loss", np.array([1.0, 2.0, 3.0]))  # finite: no error
+    with pytest.raises(offline.TrainingError, match=r"^m: loss is nan at step 3 of 4$"):
+        offline.check_finite("m", "loss", np.array([1.0, 2.0, np.nan, np.inf]))
+    # [P, steps]: the first step where any preference fails, and that preference
+    losses = np.ones((3, 5))
+    losses[2, 1] = np.inf
+    losses[0, 3] = np.nan
+    with pytest.raises(
+        offline.TrainingError, match=r"^m: critic loss is inf at step 2 of 5 \(preference 3 of 3\)$"
+    ):
+        offline.check_finite("m", "critic loss", losses)
+
+
+def test_a_diverging_critic_gives_a_non_finite_loss_that_is_caught():
+    """A step size far too large: the critic loss overflows within the run, and the check
+    names the first step where it did."""
+    data = tiny_protocol()
+    obj = offline.objectives(data, 0.9, 0.2)
+    cfg = dataclasses.replace(TINY, critic_lr=1e30)
+    train, _ = offline.make_train("wcac", cfg, data)
+    _, metrics = jax.jit(train)(jax.random.key(0), jnp.full((7,), 1 / 7), data, obj)
+    loss = np.asarray(metrics["train/critic_loss"])
+    first = int(np.argmax(~np.isfinite(loss)))
+    assert not np.isfinite(loss[first]) and np.isfinite(loss[:first]).all()
+    with pytest.raises(offline.TrainingError, match=f"at step {first + 1} of {cfg.steps}$"):
+        offline.check_finite("wcac", "critic loss", loss)

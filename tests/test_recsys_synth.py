@@ -2,6 +2,7 @@
 the response model's consistency with the drawn logs, and the CLI's bad input."""
 
 import os
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -9,6 +10,7 @@ import pytest
 
 from wcac_jax.recsys import synth
 from wcac_jax.recsys.data import LOG_COLUMNS
+from wcac_jax.recsys.kuairand import LAYOUTS
 
 # big enough that every published rate is a whole number of positives within 10 %
 CFG = synth.SynthConfig(users=200, videos=220, rows=24_000, seed=3)
@@ -181,3 +183,40 @@ def test_cli_refuses_an_out_it_cannot_make(tmp_path, capsys):
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and f"{str(a_file)!r} is not a directory" in err[0]
     assert a_file.read_text() == ""
+
+
+def _tree(d):
+    return {p.relative_to(d): p.read_bytes() for p in sorted(d.rglob("*")) if p.is_file()}
+
+
+def test_writes_kuairand_27k_names():
+    names = [*synth.FILES["standard"], synth.FILES["random"], synth.FILES["user"]]
+    names += [synth.FILES["video_basic"], *synth.FILES["video_statistic"]]
+    assert set(names) <= set(LAYOUTS["27k"].files)
+
+
+def test_cli_refuses_to_write_over_kuairand_files(tmp_path, capsys):
+    out = tmp_path / "d"
+    args = ["--out", str(out), "--users", "10", "--videos", "20", "--rows", "200"]
+    assert synth.main(args) == 0
+    before = _tree(out)
+    capsys.readouterr()
+    assert synth.main([*args, "--seed", "1"]) == 2
+    assert capsys.readouterr().err.splitlines() == [
+        f"error: --out {str(out)!r} already holds KuaiRand's "
+        "log_standard_4_08_to_4_21_27k_part1.csv; pass --overwrite to replace it"
+    ]
+    assert _tree(out) == before
+    # a real log of another layout is protected too, and nothing is added beside it
+    pure = tmp_path / "pure"
+    pure.mkdir()
+    (pure / "log_standard_4_08_to_4_21_pure.csv").write_text("user_id\n1\n")
+    assert synth.main(["--out", str(pure), "--users", "10"]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 1 and "log_standard_4_08_to_4_21_pure.csv; pass --overwrite" in err[0]
+    assert _tree(pure) == {Path("log_standard_4_08_to_4_21_pure.csv"): b"user_id\n1\n"}
+    # --overwrite replaces them
+    assert synth.main([*args, "--seed", "1", "--overwrite"]) == 0
+    after = _tree(out)
+    assert set(after) == set(before)
+    assert after[Path(synth.FILES["standard"][0])] != before[Path(synth.FILES["standard"][0])]

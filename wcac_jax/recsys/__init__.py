@@ -1,8 +1,10 @@
 """Offline multi-objective recommendation on KuaiRand-format logs (paper Section 6.1).
 
-`synth` writes a synthetic data set in KuaiRand's file format with a known response
-model, `data` reads a KuaiRand directory (real or synthetic) and builds the benchmark's
-offline transitions, `offline` holds the offline actor-critics (the paper's method and
-the baselines) and Behavior-Clone, `ncis` the off-policy evaluation, and `cli` what the
-command lines share. Nothing else in `wcac_jax` imports this package.
+`kuairand` knows KuaiRand's three layouts (27K, 1K, Pure: their file names) and checks
+each value read against KuaiRand's types and ranges, `synth` writes a synthetic data set
+in KuaiRand-27K's file format with a known response model, `data` reads a KuaiRand
+directory (real or synthetic) and builds the benchmark's offline transitions, `offline`
+holds the offline actor-critics (the paper's method and the baselines) and
+Behavior-Clone, `ncis` the off-policy evaluation, and `cli` what the command lines
+share. Nothing else in `wcac_jax` imports this package.
 """

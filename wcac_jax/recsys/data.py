@@ -1,9 +1,13 @@
-"""Reads a KuaiRand directory (the real 27K files or `synth`'s) and builds the offline
-transitions of the benchmark protocol (RECSYS.md §2).
+"""Reads a KuaiRand directory (real files of any of KuaiRand's three layouts, or
+`synth`'s) and builds the offline transitions of the benchmark protocol (RECSYS.md §2).
 
-- rows: `log_standard_4_08_to_4_21_27k_part1.csv`, only the `n_candidates` (150) most
-  viewed videos, in log order; the first `train_fraction` of them (450,000 of the
-  480,385 rows in the real file) train, the rest test;
+- rows: the layout's first 04-08..04-21 standard log (`kuairand.Layout.log`; on
+  KuaiRand-27K `log_standard_4_08_to_4_21_27k_part1.csv`), only the `n_candidates`
+  (150) most viewed videos, ordered by user and by `time_ms` within a user (the real
+  logs interleave users in time order; users keep the order of their first row, equal
+  times their file order, so a log already grouped that way is not reordered); the
+  first `train_fraction` of them (450,000 of the 480,385 rows of the real 27K file)
+  train, the rest test;
 - action: the video's index among the candidates, ordered by views (0 = most viewed);
 - state (`24 + 6 C + 6 H` = 1,044 dims, z-normalised over the training rows): the user's
   24 features (`USER_CATEGORICAL` label-encoded, `onehot_feat0..17`), the `C`
@@ -12,23 +16,26 @@ transitions of the benchmark protocol (RECSYS.md §2).
   state, so z-normalisation turns it into zeros: it is kept for the protocol's size;
 - reward `[7]`: `is_click, is_like, is_follow, is_comment, is_forward, is_hate,
   play_time_ms / 10000`;
-- an episode is one user's consecutive rows (`done` where the next row is another
-  user's), with `gamma = 0.99` left to the learner.
+- an episode is one user's rows (`done` where the next row is another user's), with
+  `gamma = 0.99` left to the learner.
 
 The 6 label-encoded user features are our reading of "the 6 string/bucket features":
 `user_active_degree`, `is_video_author` and the four `*_range` buckets. Missing feature
-values (NaN, and `-124`) are filled with the column's training mean, i.e. 0 after
-normalisation.
+values (empty or NaN, and `-124`) are filled with the column's training mean, i.e. 0
+after normalisation.
 
-Bad input (a missing file or column, a non-numeric or missing value where the protocol
-needs a number) raises `DataError` naming the file and column; on the command line
-(`python -m wcac_jax.recsys.data DIR`) that is one `error:` line and exit status 2.
+Bad input is rejected, never passed on (`kuairand`'s checks): a missing file or column;
+in the log, a missing, non-numeric, infinite or float value (KuaiRand's log columns are
+int64: a `video_id` written `12.5` or `12.0` is named as a float), a signal outside
+{0, 1}, a negative id, `time_ms` or `play_time_ms`; in the features the protocol uses,
+a non-numeric or infinite value, or a column with no value at all for the log's users
+or the candidate videos. Each raises `DataError` with one line naming the file, the
+column and an example data row; on the command line (`python -m wcac_jax.recsys.data
+DIR`) that is one `error:` line and exit status 2.
 """
 
 from __future__ import annotations
 
-import glob
-import os
 import sys
 from dataclasses import dataclass
 
@@ -38,12 +45,14 @@ import numpy as np
 import pandas as pd
 from flax import struct
 
+from wcac_jax.recsys import kuairand
 from wcac_jax.recsys.cli import ArgumentParser
+from wcac_jax.recsys.kuairand import DataError, Layout
 
-LOG_FILE = "log_standard_4_08_to_4_21_27k_part1.csv"
-USER_FILE = "user_features_27k.csv"
-VIDEO_BASIC_FILE = "video_features_basic_27k.csv"
-VIDEO_STATISTIC_GLOB = "video_features_statistic_27k_part*.csv"
+# KuaiRand-27K's names, for callers that know the layout
+LOG_FILE = kuairand.LAYOUTS["27k"].log
+USER_FILE = kuairand.LAYOUTS["27k"].user
+VIDEO_BASIC_FILE = kuairand.LAYOUTS["27k"].video_basic
 
 REWARD_COLUMNS = (
     "is_click",
@@ -55,7 +64,7 @@ REWARD_COLUMNS = (
     "play_time_ms",
 )
 SIGNALS = ("click", "like", "follow", "comment", "forward", "hate", "watch_time")
-LOG_COLUMNS = ("user_id", "video_id", *REWARD_COLUMNS)
+LOG_COLUMNS = ("user_id", "video_id", "time_ms", *REWARD_COLUMNS)
 USER_CATEGORICAL = (
     "user_active_degree",
     "is_video_author",
@@ -78,10 +87,6 @@ VIDEO_FEATURES = (
 PAPER_TRAIN_FRACTION = 450_000 / 480_385
 
 
-class DataError(ValueError):
-    """A KuaiRand file is missing or malformed; the message names the file and column."""
-
-
 @dataclass(frozen=True)
 class ProtocolConfig:
     """Sizes of the protocol.
@@ -98,6 +103,14 @@ class ProtocolConfig:
     train_fraction: float = PAPER_TRAIN_FRACTION
     chunksize: int = 2_000_000
 
+    def __post_init__(self):
+        if self.n_candidates < 2:
+            raise ValueError(f"--candidates must be >= 2, got {self.n_candidates}")
+        if self.history < 0:
+            raise ValueError(f"--history must be >= 0, got {self.history}")
+        if not 0.0 < self.train_fraction < 1.0:
+            raise ValueError(f"train_fraction must be in (0, 1), got {self.train_fraction}")
+
     @property
     def state_dim(self) -> int:
         return len(USER_CATEGORICAL) + len(USER_ONEHOT) + 6 * (self.n_candidates + self.history)
@@ -107,7 +120,8 @@ class ProtocolConfig:
 class Protocol:
     """The offline data set: per-row arrays and the tables states are built from.
 
-    Per-row arrays (`n` rows in log order, `n_train` first ones for training):
+    Per-row arrays (`n` rows, each user's consecutive and in time order, `n_train`
+    first ones for training):
       user_index: `[n]` row of `user_table`; action: `[n]` candidate index;
       reward: `[n, 7]` (`SIGNALS` order, raw: hate is a rate to be minimised);
       done: `[n]` 1 where the next row belongs to another user (or there is none);
@@ -118,6 +132,8 @@ class Protocol:
       features; cand_state: `[6 C]` the state's (normalised) candidate block;
       hist_mean, hist_std: `[H, 6]` normalisation of the history block;
       action_features: `[C, 6]` candidate features z-normalised across candidates.
+    Ids (host numpy arrays, int64): user_ids `[U]` of `user_table`'s rows; video_ids
+      `[C]` of the candidates, most viewed first.
     """
 
     user_index: chex.Array
@@ -132,8 +148,10 @@ class Protocol:
     hist_std: chex.Array
     action_features: chex.Array
     n_train: int = struct.field(pytree_node=False)
-    user_ids: np.ndarray = struct.field(pytree_node=False)
-    video_ids: np.ndarray = struct.field(pytree_node=False)
+    # leaves, not static fields: jit compares static fields with `==` when it meets a
+    # second Protocol, which arrays cannot answer (a second run in one process failed)
+    user_ids: np.ndarray
+    video_ids: np.ndarray
 
     @property
     def n_rows(self) -> int:
@@ -146,6 +164,10 @@ class Protocol:
     @property
     def state_dim(self) -> int:
         return int(self.user_table.shape[1] + self.cand_state.shape[0] + self.hist_mean.size)
+
+    @property
+    def n_episodes(self) -> int:
+        return int(np.asarray(self.done).sum())
 
 
 def states(data: Protocol, rows: chex.Array) -> chex.Array:
@@ -166,72 +188,45 @@ def states(data: Protocol, rows: chex.Array) -> chex.Array:
     return jnp.concatenate([user, cand, hist_block], axis=-1)
 
 
-def _path(directory: str, name: str) -> str:
-    path = os.path.join(directory, name)
-    if not os.path.isfile(path):
-        raise DataError(f"{path}: file not found (expected KuaiRand's {name})")
-    return path
-
-
-def _read(path: str, columns, chunksize=None):
-    """`pd.read_csv` of `columns` with errors turned into `DataError`s naming the file."""
-    try:
-        header = pd.read_csv(path, nrows=0).columns
-    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as err:
-        raise DataError(f"{path}: not a readable CSV ({err})") from None
-    missing = [c for c in columns if c not in header]
-    if missing:
-        raise DataError(f"{path}: missing column {missing[0]!r}")
-    try:
-        return pd.read_csv(path, usecols=list(columns), chunksize=chunksize, low_memory=False)
-    except (pd.errors.ParserError, ValueError) as err:
-        raise DataError(f"{path}: not a readable CSV ({err})") from None
-
-
-def _numeric(df: pd.DataFrame, column: str, path: str, allow_missing: bool) -> pd.Series:
-    """The column as numbers; a non-numeric (or, unless allowed, missing) value is an error."""
-    s = df[column]
-    if not pd.api.types.is_numeric_dtype(s):
-        conv = pd.to_numeric(s, errors="coerce")
-        bad = conv.isna() & s.notna()
-        if bad.any():
-            i = bad.idxmax()
-            raise DataError(
-                f"{path}: column {column!r}: non-numeric value {s[i]!r} (data row {i + 1})"
-            )
-        s = conv
-    if not allow_missing and s.isna().any():
-        i = s.isna().idxmax()
-        raise DataError(f"{path}: column {column!r}: missing value (data row {i + 1})")
-    return s
-
-
-def _chunks(path, columns, chunksize):
-    try:
-        yield from _read(path, columns, chunksize)
-    except pd.errors.ParserError as err:
-        raise DataError(f"{path}: not a readable CSV ({err})") from None
-
-
 def read_log(path: str, chunksize: int = 2_000_000, keep_videos=None) -> pd.DataFrame:
-    """Reads a KuaiRand log's `LOG_COLUMNS` (validated integers/numbers), optionally only
-    the rows whose `video_id` is in `keep_videos`. Rows stay in log order."""
+    """Reads a KuaiRand log's `LOG_COLUMNS` (checked numbers), optionally only the rows
+    whose `video_id` is in `keep_videos`. Rows stay in file order; the index is the row's
+    data row in the file (0-based)."""
     parts = []
-    for chunk in _chunks(path, LOG_COLUMNS, chunksize):
+    for chunk in kuairand.chunks(path, LOG_COLUMNS, chunksize):
         for col in LOG_COLUMNS:
-            chunk[col] = _numeric(chunk, col, path, allow_missing=False)
+            binary = col.startswith("is_")
+            low = None if binary else 0
+            chunk[col] = kuairand.integers(chunk, col, path, low=low, binary=binary)
         if keep_videos is not None:
             chunk = chunk[chunk["video_id"].isin(keep_videos)]
         parts.append(chunk)
     if not parts:
         raise DataError(f"{path}: no rows")
-    return pd.concat(parts, ignore_index=True)
+    return pd.concat(parts)
+
+
+def by_user_in_time(user_id: np.ndarray, time_ms: np.ndarray) -> np.ndarray:
+    """The row order that makes each user's rows consecutive and in time order.
+
+    Users keep the order of their first row; rows with equal times keep their file
+    order, so a log already grouped by user and in time order within each user is left
+    as it is. (KuaiRand's logs interleave users in time order.)
+
+    Args:
+      user_id: `[n]`; time_ms: `[n]`.
+
+    Returns:
+      `[n]` row indices.
+    """
+    first_seen = pd.factorize(user_id)[0]
+    return np.lexsort((np.arange(user_id.shape[0]), time_ms, first_seen))
 
 
 def _top_videos(path: str, n: int, chunksize: int) -> np.ndarray:
     counts = None
-    for chunk in _chunks(path, ("video_id",), chunksize):
-        c = _numeric(chunk, "video_id", path, allow_missing=False).value_counts()
+    for chunk in kuairand.chunks(path, ("video_id",), chunksize):
+        c = kuairand.integers(chunk, "video_id", path, low=0).value_counts()
         counts = c if counts is None else counts.add(c, fill_value=0)
     if counts is None or len(counts) == 0:
         raise DataError(f"{path}: no rows")
@@ -242,52 +237,70 @@ def _top_videos(path: str, n: int, chunksize: int) -> np.ndarray:
     return counts.index.to_numpy()[order[:n]].astype(np.int64)
 
 
-def _user_table(directory: str, user_ids: np.ndarray) -> np.ndarray:
-    path = _path(directory, USER_FILE)
-    df = _read(path, ("user_id", *USER_CATEGORICAL, *USER_ONEHOT))
-    df["user_id"] = _numeric(df, "user_id", path, allow_missing=False)
-    df = df.drop_duplicates("user_id").set_index("user_id")
-    missing = np.setdiff1d(user_ids, df.index.to_numpy())
-    if missing.size:
-        raise DataError(f"{path}: column 'user_id': no row for user {missing[0]} of the log")
-    df = df.loc[user_ids]
+def _user_table(directory: str, layout: Layout, user_ids: np.ndarray) -> np.ndarray:
+    path = kuairand.path(directory, layout.user)
+    df = kuairand.read(path, ("user_id", *USER_CATEGORICAL, *USER_ONEHOT))
+    df["user_id"] = kuairand.integers(df, "user_id", path, low=0)
+    df = df.drop_duplicates("user_id")
+    pos = pd.Index(df["user_id"]).get_indexer(user_ids)
+    if (pos < 0).any():
+        missing = user_ids[np.argmax(pos < 0)]
+        raise DataError(f"{path}: column 'user_id': no row for user {missing} of the log")
+    df = df.iloc[pos]  # the log's users, in `user_ids` order; the index is the data row
+    what = "the log's users"
     cols = []
     for col in USER_CATEGORICAL:  # label-encoded; the missing value is a label of its own
+        kuairand.not_all_missing(df[col], path, col, what)
         cols.append(pd.factorize(df[col].astype(str), sort=True)[0].astype(np.float64))
     for col in USER_ONEHOT:
-        x = _numeric(df, col, path, allow_missing=True).to_numpy(np.float64, copy=True)
+        x = kuairand.features(df, col, path)
         x[x == -124] = np.nan
-        cols.append(x)
+        kuairand.not_all_missing(x, path, col, what)
+        cols.append(x.to_numpy(np.float64, copy=True))
     return np.stack(cols, axis=1)
 
 
-def _video_table(directory: str, video_ids: np.ndarray) -> np.ndarray:
-    path = _path(directory, VIDEO_BASIC_FILE)
-    basic = pd.concat(
-        [c[c["video_id"].isin(video_ids)] for c in _chunks(path, VIDEO_BASIC_COLUMNS, 2_000_000)]
-    )
-    basic["video_id"] = _numeric(basic, "video_id", path, allow_missing=False)
-    for col in ("video_duration", "music_type"):
-        basic[col] = _numeric(basic, col, path, allow_missing=True)
-    first_tag = basic["tag"].astype("string").str.split(",").str[0].str.strip()
-    basic["tag"] = _numeric(pd.DataFrame({"tag": first_tag}), "tag", path, allow_missing=True)
-    basic = basic.drop_duplicates("video_id").set_index("video_id")
-
-    paths = sorted(glob.glob(os.path.join(directory, VIDEO_STATISTIC_GLOB)))
-    if not paths:
+def _candidate_rows(frames, path: str, video_ids: np.ndarray) -> pd.DataFrame:
+    """The rows of the candidate videos (first row per video), indexed by data row."""
+    rows = pd.concat(frames).drop_duplicates("video_id")
+    if not len(rows):
         raise DataError(
-            f"{os.path.join(directory, VIDEO_STATISTIC_GLOB)}: file not found "
-            "(expected KuaiRand's video statistics)"
+            f"{path}: column 'video_id': no row for any of the {len(video_ids)} candidate "
+            f"videos (e.g. video {video_ids[0]})"
         )
+    return rows
+
+
+def _video_table(directory: str, layout: Layout, video_ids: np.ndarray) -> np.ndarray:
+    path = kuairand.path(directory, layout.video_basic)
+    what = "the candidate videos"
+    frames = []
+    for chunk in kuairand.chunks(path, VIDEO_BASIC_COLUMNS, 2_000_000):
+        chunk["video_id"] = kuairand.integers(chunk, "video_id", path, low=0)
+        frames.append(chunk[chunk["video_id"].isin(video_ids)])
+    basic = _candidate_rows(frames, path, video_ids)
+    for col in ("video_duration", "music_type"):
+        basic[col] = kuairand.features(basic, col, path)
+    first_tag = basic["tag"].astype("string").str.split(",").str[0].str.strip()
+    basic["tag"] = kuairand.features(pd.DataFrame({"tag": first_tag}), "tag", path)
+    for col in VIDEO_BASIC_COLUMNS[1:]:
+        kuairand.not_all_missing(basic[col], path, col, what)
+    basic = basic.set_index("video_id")
+
+    paths = [kuairand.path(directory, name) for name in layout.video_statistic]
     stats = []
-    for p in paths:
-        for chunk in _chunks(p, VIDEO_STAT_COLUMNS, 2_000_000):
-            chunk["video_id"] = _numeric(chunk, "video_id", p, allow_missing=False)
+    for part, p in enumerate(paths):
+        for chunk in kuairand.chunks(p, VIDEO_STAT_COLUMNS, 2_000_000):
+            chunk["video_id"] = kuairand.integers(chunk, "video_id", p, low=0)
             chunk = chunk[chunk["video_id"].isin(video_ids)].copy()
             for col in VIDEO_STAT_COLUMNS[1:]:
-                chunk[col] = _numeric(chunk, col, p, allow_missing=True)
+                chunk[col] = kuairand.features(chunk, col, p)
+            chunk["part"] = part
             stats.append(chunk)
-    stat = pd.concat(stats).drop_duplicates("video_id").set_index("video_id")
+    stat = _candidate_rows(stats, " and ".join(paths), video_ids)
+    for col in VIDEO_STAT_COLUMNS[1:]:
+        kuairand.not_all_missing(stat[col], paths[stat["part"].iloc[0]], col, what)
+    stat = stat.set_index("video_id")
     table = pd.concat([basic.reindex(video_ids), stat.reindex(video_ids)], axis=1)
     x = table[list(VIDEO_FEATURES)].to_numpy(np.float64)
     return np.where(np.isnan(x), np.nanmean(x, axis=0), x)
@@ -312,21 +325,30 @@ def _histories(user_index: np.ndarray, action: np.ndarray, h: int) -> np.ndarray
     return np.where(j[None, :] < pos[:, None], action[np.maximum(src, 0)], -1).astype(np.int32)
 
 
-def load(directory: str, config: ProtocolConfig = ProtocolConfig()) -> Protocol:
+def load(
+    directory: str, config: ProtocolConfig = ProtocolConfig(), version: str | None = None
+) -> Protocol:
     """Reads a KuaiRand directory and builds the protocol's offline transitions.
+
+    Args:
+      directory: the KuaiRand files of one layout (`kuairand.LAYOUTS`).
+      config: the protocol's sizes.
+      version: `"27k"`, `"1k"` or `"pure"`; by default the layout whose file names the
+        directory holds.
 
     Raises:
       DataError: a file or column is missing, or a value is malformed.
     """
-    if not os.path.isdir(directory):
-        raise DataError(f"{directory}: not a directory")
-    log_path = _path(directory, LOG_FILE)
+    layout = kuairand.detect(directory, version)
+    log_path = kuairand.path(directory, layout.log)
     candidates = _top_videos(log_path, config.n_candidates, config.chunksize)
     log = read_log(log_path, config.chunksize, keep_videos=candidates)
     n = len(log)
     n_train = int(round(n * config.train_fraction))
     if not 0 < n_train < n:
         raise DataError(f"{log_path}: {n} kept rows cannot be split {config.train_fraction:.4f}")
+    order = by_user_in_time(log["user_id"].to_numpy(np.int64), log["time_ms"].to_numpy(np.int64))
+    log = log.iloc[order]
 
     user_ids, user_index = np.unique(log["user_id"].to_numpy(np.int64), return_inverse=True)
     action = pd.Index(candidates).get_indexer(log["video_id"].to_numpy(np.int64))
@@ -335,10 +357,10 @@ def load(directory: str, config: ProtocolConfig = ProtocolConfig()) -> Protocol:
     done = np.r_[user_index[1:] != user_index[:-1], True].astype(np.float32)
     history = _histories(user_index, action, config.history)
 
-    user_raw = _user_table(directory, user_ids)
+    user_raw = _user_table(directory, layout, user_ids)
     u_mean, u_std = _zscore_stats(user_raw[user_index[:n_train]])
     user_raw = np.where(np.isnan(user_raw), u_mean, user_raw)
-    video_raw = _video_table(directory, candidates)
+    video_raw = _video_table(directory, layout, candidates)
     cand_mean, cand_std = _zscore_stats(video_raw)
     hist_train = history[:n_train]
     hist_raw = np.where(hist_train[..., None] >= 0, video_raw[np.maximum(hist_train, 0)], 0.0)
@@ -371,16 +393,41 @@ def main(argv=None) -> int:
         description="Check a KuaiRand directory and summarise the protocol's transitions.",
     )
     parser.add_argument("directory")
+    parser.add_argument(
+        "--version",
+        choices=kuairand.VERSIONS,
+        default=None,
+        help="the KuaiRand layout (default: found from the file names)",
+    )
+    parser.add_argument(
+        "--candidates",
+        type=int,
+        default=ProtocolConfig.n_candidates,
+        help="C, the most viewed videos kept",
+    )
+    parser.add_argument(
+        "--history",
+        type=int,
+        default=ProtocolConfig.history,
+        help="H, previously viewed videos in the state",
+    )
     args = parser.parse_args(argv)
     try:
-        data = load(args.directory)
+        config = ProtocolConfig(n_candidates=args.candidates, history=args.history)
+    except ValueError as err:
+        parser.error(str(err))
+    try:
+        data = load(args.directory, config, args.version)
     except DataError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
     test = np.asarray(data.reward[data.n_train :]).mean(axis=0)
+    layout = kuairand.detect(args.directory, args.version)
     print(
-        f"{data.n_rows} rows ({data.n_train} train), {len(data.user_ids)} users, "
-        f"{data.n_candidates} candidates, state {data.state_dim} dims"
+        f"{layout.name} {layout.log}: {data.n_rows} rows ({data.n_train} train), "
+        f"{len(data.user_ids)} users, {data.n_episodes} episodes of mean length "
+        f"{data.n_rows / data.n_episodes:.2f}, {data.n_candidates} candidates, "
+        f"state {data.state_dim} dims"
     )
     print("test means: " + ", ".join(f"{s} {v:.5g}" for s, v in zip(SIGNALS, test, strict=True)))
     return 0

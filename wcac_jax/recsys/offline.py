@@ -124,6 +124,31 @@ class OfflineConfig:
             raise ValueError(f"mu must be > 0, got {self.mu}")
 
 
+class TrainingError(RuntimeError):
+    """Training produced a non-finite value; the message names where it first appeared."""
+
+
+def check_finite(name: str, what: str, values) -> None:
+    """Raises `TrainingError` at the first non-finite entry of a training record.
+
+    Args:
+      name: the method, for the message.
+      what: the quantity, e.g. `"critic loss"`.
+      values: `[steps]` or `[P, steps]` (one row per preference); host side.
+    """
+    x = np.asarray(values, np.float64)
+    x = x.reshape((1,) * (2 - x.ndim) + x.shape)
+    bad = ~np.isfinite(x)
+    if not bad.any():
+        return
+    step = int(np.argmax(bad.any(axis=0)))  # the first step where any preference failed
+    pref = int(np.argmax(bad[:, step]))
+    where = f" (preference {pref + 1} of {x.shape[0]})" if x.shape[0] > 1 else ""
+    raise TrainingError(
+        f"{name}: {what} is {x[pref, step]} at step {step + 1} of {x.shape[1]}{where}"
+    )
+
+
 @struct.dataclass
 class Objectives:
     """How rewards become maximised, comparable objectives.

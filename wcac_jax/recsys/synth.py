@@ -29,7 +29,9 @@ sample of exactly `round(rate * rows)` rows with odds proportional to the model'
 the realised rates match the published ones to rounding.
 
 Command line: `python -m wcac_jax.recsys.synth --out DIR [--users U --videos V --rows R
---seed S | --paper-scale]`. Bad input prints one `error:` line, exits 2, writes nothing.
+--seed S | --paper-scale] [--overwrite]`. Bad input prints one `error:` line, exits 2,
+writes nothing; so does a `DIR` that already holds a KuaiRand-named file (a log or
+features of any layout), unless `--overwrite`.
 """
 
 from __future__ import annotations
@@ -43,6 +45,7 @@ import pandas as pd
 
 from wcac_jax.outputs import unwritable_dir
 from wcac_jax.recsys.cli import ArgumentParser
+from wcac_jax.recsys.kuairand import LAYOUTS
 
 # KuaiRand-Pure standard logs (RECSYS.md §1); watch time: the protocol's test mean.
 PURE_RATES = {
@@ -609,6 +612,15 @@ def write(cfg: SynthConfig, out: str) -> ResponseModel:
     return model
 
 
+def kuairand_files(directory: str) -> list[str]:
+    """The KuaiRand-named files (of any layout) in `directory`, logs first."""
+    if not os.path.isdir(directory):
+        return []
+    names = [n for layout in LAYOUTS.values() for n in layout.files]
+    names.sort(key=lambda n: not n.startswith("log_"))
+    return [n for n in names if os.path.lexists(os.path.join(directory, n))]
+
+
 def main(argv=None) -> int:
     parser = ArgumentParser(
         prog="python -m wcac_jax.recsys.synth", description=__doc__.split("\n\n")[0]
@@ -618,6 +630,9 @@ def main(argv=None) -> int:
     parser.add_argument("--videos", type=int, default=SynthConfig.videos)
     parser.add_argument("--rows", type=int, default=SynthConfig.rows, help="rows of part1")
     parser.add_argument("--seed", type=int, default=SynthConfig.seed)
+    parser.add_argument(
+        "--overwrite", action="store_true", help="replace KuaiRand files already in --out"
+    )
     parser.add_argument(
         "--paper-scale",
         action="store_true",
@@ -632,6 +647,12 @@ def main(argv=None) -> int:
         problem = unwritable_dir(args.out)
         if problem:
             raise ValueError(f"--out {args.out!r} can't be written: {problem}")
+        held = kuairand_files(args.out)
+        if held and not args.overwrite:
+            raise ValueError(
+                f"--out {args.out!r} already holds KuaiRand's {held[0]}; "
+                "pass --overwrite to replace it"
+            )
     except ValueError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
