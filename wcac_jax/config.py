@@ -47,8 +47,15 @@ def positive(name: str, value):
     if not value > 0:  # also rejects NaN
         raise ValueError(f"{name} must be > 0, got {value!r}")
     if not finite_f32(value):
-        raise ValueError(f"{name} must be finite in float32 (< {F32_MAX:.4g}), got {value!r}")
+        raise ValueError(f"{name} must be finite in float32, got {value!r}")
     return value
+
+
+def positive_below_f32_max(name: str, value):
+    """`positive`, its message naming float32's largest value."""
+    if value > 0 and not finite_f32(value):
+        raise ValueError(f"{name} must be finite in float32 (< {F32_MAX:.4g}), got {value!r}")
+    return positive(name, value)
 
 
 def positive_or_inf(name: str, value):

@@ -41,7 +41,7 @@ from wcac_jax.config import (
     frozen_config,
     one_of,
     optional_point,
-    positive,
+    positive_below_f32_max,
     positive_int,
     positive_or_inf,
 )
@@ -76,7 +76,7 @@ class PaperConfig(Config):
     )
     num_iterations: int = field(100, "T, outer iterations", positive_int)
     gamma: float = field(0.99, "discount", discount)
-    mu: float = field(0.05, "smoothing temperature of smooth_wc", positive)
+    mu: float = field(0.05, "smoothing temperature of smooth_wc", positive_below_f32_max)
     j_ub: tuple[float, ...] | None = field(
         None,
         "utopia point, one entry per objective (None: the environment's default)",
@@ -97,8 +97,8 @@ class PaperConfig(Config):
     )
     width: int = field(256, "w, hidden width of both networks", positive_int)
     depth: int = field(2, "D, hidden layers of both networks", positive_int)
-    actor_lr: float = field(3e-4, "alpha, the actor's step size", positive)
-    critic_lr: float = field(1e-3, "beta, the critics' TD step size", positive)
+    actor_lr: float = field(3e-4, "alpha, the actor's step size", positive_below_f32_max)
+    critic_lr: float = field(1e-3, "beta, the critics' TD step size", positive_below_f32_max)
     actor_optimizer: str = field(
         "normalized",
         "normalized (the paper, constant alpha), normalized_harmonic (alpha / (t + 1)), "
