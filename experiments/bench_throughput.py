@@ -42,10 +42,8 @@ import jax
 import jax.numpy as jnp
 
 from wcac_jax import envs, pareto
-from wcac_jax.config import TrainConfig
+from wcac_jax.algos import PaperConfig, PracticalConfig, make_trainer
 from wcac_jax.envs.wrappers import EpisodeWrapper
-from wcac_jax.ppo import PPOConfig
-from wcac_jax.trainers import make_trainer
 from wcac_jax.utopia import PREF_AXIS
 
 _LAST_CORES = {}
@@ -157,8 +155,8 @@ def main(argv=None):
         "--update",
         choices=["paper", "practical"],
         default="paper",
-        help="the paper's update (TrainConfig: the size flags below) or the practical one "
-        "(PPOConfig's defaults; its shared utopia point rules out the sequential baseline)",
+        help="the paper's update (PaperConfig: the size flags below) or the practical one "
+        "(PracticalConfig's defaults; its shared utopia point rules out the sequential baseline)",
     )
     parser.add_argument("--prefs", type=int, default=9, help="P")
     parser.add_argument("--envs-per-pref", type=int, default=16, help="N")
@@ -168,7 +166,7 @@ def main(argv=None):
         "--width",
         type=int,
         default=None,
-        help="hidden width (default: TrainConfig's or PPOConfig's)",
+        help="hidden width (default: PaperConfig's or PracticalConfig's)",
     )
     parser.add_argument("--depth", type=int, default=2)
     parser.add_argument("--network", default="paper")
@@ -190,16 +188,16 @@ def main(argv=None):
 
     env_kwargs = {"physics": args.physics, "engine": args.engine} if args.env == "walker2d" else {}
     env = envs.make(args.env, **env_kwargs)
-    if args.update == "practical":  # PPOConfig's own sizes but N; no sequential baseline
-        config = PPOConfig(num_envs=args.envs_per_pref)
+    if args.update == "practical":  # PracticalConfig's own sizes but N; no sequential baseline
+        config = PracticalConfig(num_envs=args.envs_per_pref)
         config = config.replace(width=args.width or config.width)
         args.skip = sorted({*args.skip, "sequential"})
     else:
-        config = TrainConfig(
+        config = PaperConfig(
             num_envs=args.envs_per_pref,
             critic_steps=args.critic_steps,
             rollout_steps=args.rollout_steps,
-            width=args.width or TrainConfig.width,
+            width=args.width or PaperConfig.width,
             depth=args.depth,
             network=args.network,
             normalize_obs=args.env != "concave_bandit",
@@ -299,7 +297,7 @@ def run_grid(args, out: str) -> dict:
                     *("--envs-per-pref", str(n), "--iterations", str(iters)),
                     *("--critic-steps", str(args.critic_steps)),
                     *("--rollout-steps", str(args.rollout_steps)),
-                    *("--width", str(args.width or TrainConfig.width), "--depth", str(args.depth)),
+                    *("--width", str(args.width or PaperConfig.width), "--depth", str(args.depth)),
                     *("--network", args.network, "--skip", "sequential", "--out", row_out),
                 ]
                 if args.devices is not None:

@@ -27,11 +27,10 @@ import jax.numpy as jnp
 import numpy as np
 
 from wcac_jax import envs, scalarize
-from wcac_jax.config import TrainConfig
-from wcac_jax.train import make_trainer
+from wcac_jax.algos import PaperConfig, make_trainer
 
 PREFS = ((0.2, 0.8), (0.5, 0.5), (0.8, 0.2))
-BASE = TrainConfig(
+BASE = PaperConfig(
     num_envs=16,
     critic_steps=10,
     rollout_steps=10,

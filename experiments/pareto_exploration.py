@@ -34,9 +34,10 @@ import jax.numpy as jnp
 import numpy as np
 
 from wcac_jax import envs, pareto, presets
+from wcac_jax.algos import make_trainer
 from wcac_jax.envs import concave_bandit as cb
 from wcac_jax.envs import deep_sea_treasure as dst_env
-from wcac_jax.train import TRACED_DIRECTIONS, make_trainer
+from wcac_jax.runtime import TRACED_DIRECTIONS
 
 DIRECTIONS = ("smooth_wc", "wc", "linear", "mgda")
 # The environments' own tuned settings (`wcac_jax.presets`, the CLI's defaults for them),

@@ -19,7 +19,7 @@ import jax
 import numpy as np
 
 from wcac_jax import cli, envs, pareto, presets
-from wcac_jax.config import TrainConfig
+from wcac_jax.algos import PaperConfig
 from wcac_jax.outputs import library_versions
 from wcac_jax.sweep import (
     SweepConfig,
@@ -39,19 +39,19 @@ CONFIGS = {
     # beta = 1e-3, gamma = 0.99, mu = 0.05, J_ub = (2000, 1000), width 256, depth 2, and
     # Algorithm 2 as written: every critic restarts from W(0) at each iteration and is
     # projected onto the ball of radius B = 1.0 (the paper states no B; see
-    # `TrainConfig.projection_radius` for how this one was measured).
-    "paper": TrainConfig(),
+    # `PaperConfig.projection_radius` for how this one was measured).
+    "paper": PaperConfig(),
     # Departure: a conventional flax MLP (every layer trained, policy head initialised
     # small so initial actions are not saturated) for actor and critics, and Adam on
     # the direction d_t instead of the normalised step; warm critics without projection
     # (as it was run). Everything else as the paper.
-    "mlp-adam": TrainConfig(
+    "mlp-adam": PaperConfig(
         network="mlp", actor_optimizer="adam", critic_warm_start=True, projection_radius=math.inf
     ),
     # Departure: the paper's setting but the critics continue from the previous
     # iteration and are never projected (what `paper` meant before the paper's own
     # Algorithm 2 became the default; the Walker2d results recorded before then).
-    "paper-warm": TrainConfig(critic_warm_start=True, projection_radius=math.inf),
+    "paper-warm": PaperConfig(critic_warm_start=True, projection_radius=math.inf),
     # The practical preset (wcac_jax.presets): the same smoothed weighted-Chebyshev
     # direction, optimised as PPO (GAE, clipped ratio, 5 epochs x 16 minibatches, Adam,
     # observation and return normalisation, 128x128 tanh networks, a utopia point the sweep
@@ -86,7 +86,7 @@ def add_run_args(parser: argparse.ArgumentParser, out: str) -> None:
     )
 
 
-def train_config(name: str, **changes) -> TrainConfig:
+def train_config(name: str, **changes) -> PaperConfig:
     """The named configuration `name` with `changes` applied (sizes for tiny runs)."""
     if name not in CONFIGS:
         fail(f"unknown --config {name!r}; valid: {', '.join(CONFIGS)}")

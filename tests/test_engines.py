@@ -19,7 +19,7 @@ import pytest
 from gym_states import gymnasium_states
 
 from wcac_jax import envs, sweep
-from wcac_jax.config import TrainConfig
+from wcac_jax.algos import PaperConfig
 from wcac_jax.envs.engines.mujoco import MujocoEngine, f32_to_f64_bits
 from wcac_jax.envs.walker2d import load_mj_model
 from wcac_jax.envs.wrappers import EpisodeWrapper
@@ -174,7 +174,7 @@ def _tiny_config(**env_options):
             "episode_length": 40,
             **env_options,
         },
-        train=TrainConfig(num_envs=4, critic_steps=2, rollout_steps=3, width=16, depth=1),
+        train=PaperConfig(num_envs=4, critic_steps=2, rollout_steps=3, width=16, depth=1),
         steps_per_pref=4 * 5 * 6,
         eval_episodes=1,
     )

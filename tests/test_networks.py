@@ -47,10 +47,9 @@ def test_every_w_gets_a_gradient_and_a_and_c_stay_fixed():
     # one training iteration (critic TD steps and the actor's step) of the paper network
     # on the bandit: every W of the actor and of both critics moves, A and c do not
     from wcac_jax import envs
-    from wcac_jax.config import TrainConfig
-    from wcac_jax.train import make_trainer
+    from wcac_jax.algos import PaperConfig, make_trainer
 
-    config = TrainConfig(
+    config = PaperConfig(
         num_envs=4, critic_steps=2, rollout_steps=2, num_iterations=1, width=8, depth=2
     )
     trainer = make_trainer(config, envs.make("concave_bandit"))

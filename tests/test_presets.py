@@ -11,9 +11,8 @@ import numpy as np
 import pytest
 from nbclient import NotebookClient
 
-from wcac_jax import cli, envs, presets, sweep, trainers, utopia
-from wcac_jax.config import TrainConfig
-from wcac_jax.ppo import PPOConfig
+from wcac_jax import algos, cli, envs, presets, sweep, utopia
+from wcac_jax.algos import PaperConfig, PracticalConfig
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -35,7 +34,7 @@ def test_every_environment_has_a_default_and_help_shows_it(capsys):
 
 def test_environment_defaults_without_flags():
     walker = _config("--env", "walker2d")
-    assert walker.train == PPOConfig().replace(num_iterations=walker.train.num_iterations)
+    assert walker.train == PracticalConfig().replace(num_iterations=walker.train.num_iterations)
     assert walker.steps_per_pref == 1_000_000
     assert len(walker.prefs) == presets.DEFAULT_N_PREFS  # evenly spaced
     np.testing.assert_allclose(walker.prefs[1], [0.875, 0.125])
@@ -79,7 +78,7 @@ def test_walker2d_default_chooses_among_the_last_policies_when_they_fit(capsys):
 def test_paper_preset_gives_the_papers_recipe_and_preferences_on_any_env():
     for env in ("walker2d", "concave_bandit"):
         config = _config("--env", env, "--preset", "paper")
-        assert config.train == TrainConfig() and config.prefs == presets.PAPER_PREFS
+        assert config.train == PaperConfig() and config.prefs == presets.PAPER_PREFS
     assert len(_config("--preset", "paper", "--n-prefs", "3").prefs) == 3
 
 
@@ -87,12 +86,12 @@ def test_explicit_flags_override_the_preset():
     config = _config("--env", "concave_bandit", "--mu", "0.01", "--scalarization", "linear")
     assert config.train == presets.BANDIT.replace(mu=0.01, scalarization="linear")
     config = _config("--preset", "practical", "--utopia", "fixed", "--j-ub", "1,2")
-    assert config.train == PPOConfig(utopia="fixed", j_ub=(1.0, 2.0))
-    assert _config("--utopia-margin", "0.02").train == PPOConfig(utopia_margin=0.02)
-    assert _config("--augment", "0.01").train == PPOConfig(augment=0.01)
+    assert config.train == PracticalConfig(utopia="fixed", j_ub=(1.0, 2.0))
+    assert _config("--utopia-margin", "0.02").train == PracticalConfig(utopia_margin=0.02)
+    assert _config("--augment", "0.01").train == PracticalConfig(augment=0.01)
     # on the practical update a fixed point means a fixed utopia: --j-ub alone says so
-    assert _config("--j-ub", "3,4").train == PPOConfig(utopia="fixed", j_ub=(3.0, 4.0))
-    assert _config("--preset", "paper", "--j-ub", "3,4").train == TrainConfig(j_ub=(3.0, 4.0))
+    assert _config("--j-ub", "3,4").train == PracticalConfig(utopia="fixed", j_ub=(3.0, 4.0))
+    assert _config("--preset", "paper", "--j-ub", "3,4").train == PaperConfig(j_ub=(3.0, 4.0))
     assert _config("--steps-per-pref", "5").steps_per_pref == 5
 
 
@@ -120,7 +119,7 @@ def test_flags_that_do_not_fit_exit_2(args, message, tmp_path, capsys):
     assert not out.exists()
 
 
-TINY_PPO = [
+TINY_PRACTICAL = [
     *("--preset", "practical", "--env", "concave_bandit", "--n-prefs", "3"),
     *("--envs-per-pref", "8", "--rollout-steps", "8", "--num-minibatches", "2"),
     *("--num-epochs", "2", "--steps-per-pref", "640", "--eval-episodes", "2", "--quiet"),
@@ -128,18 +127,18 @@ TINY_PPO = [
 
 
 @pytest.fixture(scope="module")
-def ppo_run(tmp_path_factory):
+def practical_run(tmp_path_factory):
     base = tmp_path_factory.mktemp("repo")
     out = str(base / "runs" / "20260101-000000")
-    assert cli.main([*TINY_PPO, "--chunks", "3", "--out", out]) == 0
+    assert cli.main([*TINY_PRACTICAL, "--chunks", "3", "--out", out]) == 0
     return base, out
 
 
-def test_tiny_practical_sweep_end_to_end(ppo_run, tmp_path):
-    _, out = ppo_run
+def test_tiny_practical_sweep_end_to_end(practical_run, tmp_path):
+    _, out = practical_run
     with open(os.path.join(out, "front.json")) as f:
         front = json.load(f)
-    assert front["config"]["train"]["kind"] == "ppo"
+    assert front["config"]["train"]["kind"] == "practical"
     assert len(front["prefs"]) == 3 and front["env_steps_per_pref"] == 640
     # the shared utopia: one estimate for all preferences, above every Jhat
     with np.load(os.path.join(out, "curves.npz")) as curves:
@@ -149,7 +148,7 @@ def test_tiny_practical_sweep_end_to_end(ppo_run, tmp_path):
     np.testing.assert_allclose(front["j_ub"], z[0, -1])  # front.json names the point used
     # chunking does not change the numbers
     config = sweep.SweepConfig.from_dict(front["config"])
-    assert trainers.kind(config.train) == "ppo"
+    assert algos.kind(config.train) == "practical"
     one = sweep.run_sweep(config, str(tmp_path / "one"), chunks=1, progress=False)
     assert [r["return"] for r in one["prefs"]] == [r["return"] for r in front["prefs"]]
     # the checkpoint restores, and replays one iteration under the named preference axis
@@ -162,8 +161,8 @@ def test_tiny_practical_sweep_end_to_end(ppo_run, tmp_path):
     assert all(np.isfinite(np.asarray(v)).all() for v in metrics.values())
 
 
-def test_notebook_shows_the_newest_run_without_edits(ppo_run):
-    base, _ = ppo_run
+def test_notebook_shows_the_newest_run_without_edits(practical_run):
+    base, _ = practical_run
     notebooks = base / "notebooks"
     notebooks.mkdir(exist_ok=True)
     shutil.copy(os.path.join(ROOT, "notebooks", "pareto_front.ipynb"), notebooks)
@@ -175,3 +174,29 @@ def test_notebook_shows_the_newest_run_without_edits(ppo_run):
     assert not [o for o in outputs if o.output_type == "error"]
     assert any("20260101-000000" in o.get("text", "") for o in outputs)
     assert any("image/png" in o.get("data", {}) for o in outputs)
+
+
+def test_an_environment_without_defaults_gets_the_practical_update_and_says_so():
+    d = presets.env_defaults("an_environment_without_an_entry")
+    assert d.fallback and d.preset == "practical" and d.config == PracticalConfig()
+    assert "no tuned defaults" in d.note and "practical" in d.note
+    assert not any(presets.env_defaults(name).fallback for name in envs.names())
+
+
+def test_config_flags_come_from_every_field_with_its_doc_and_true_defaults(capsys):
+    flags = {field: dest for dest, field, _ in cli.CONFIG_FLAGS}
+    for algo in algos.ALGOS.values():
+        for name in algo.config.field_docs():
+            if name != "num_iterations":  # --steps-per-pref sets it
+                assert name in flags
+    assert flags["num_envs"] == "envs_per_pref"
+    with pytest.raises(SystemExit):
+        cli.main(["--help"])
+    out = " ".join(capsys.readouterr().out.split())
+    assert "discount (preset default: paper 0.99, practical 0.99)" in out
+    # Walker2d's command-line defaults: Gymnasium's v5 model on MuJoCo's C engine
+    assert "(default: gymnasium-v5)" in out and "(default: mujoco)" in out
+    # a flag of the other update's field is refused, naming it
+    with pytest.raises(sweep.SweepError, match="--clip-eps does not apply"):
+        _config("--preset", "paper", "--clip-eps", "0.1")
+    assert _config("--preset", "paper", "--no-critic-warm-start").train == PaperConfig()

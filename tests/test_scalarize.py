@@ -83,7 +83,8 @@ def test_grad_of_g_mu_is_minus_weighted_objective_gradients():
     np.testing.assert_allclose(grad, expected, rtol=1e-5)
 
 
-@pytest.mark.parametrize("name", ["smooth_wc", "wc", "linear"])
+# every registered scalarization, so a new one is checked here without a line of its own
+@pytest.mark.parametrize("name", list(scalarize.SCALARIZATIONS))
 def test_weights_are_minus_gradient_over_pref(name):
     scal = scalarize.get(name)
     values = jnp.array([0.5, 1.5, -0.5])
@@ -91,6 +92,23 @@ def test_weights_are_minus_gradient_over_pref(name):
     j_ub = jnp.array([2.0, 2.0, 2.0])
     grad = jax.grad(scal.value)(values, pref, j_ub, 0.2)
     np.testing.assert_allclose(grad, -scal.weights(values, pref, j_ub, 0.2) * pref, rtol=1e-5)
+
+
+def test_weights_by_autodiff_match_the_hand_written_ones():
+    values, j_ub = jnp.array([0.5, 1.5, -0.5]), jnp.array([2.0, 2.0, 2.0])
+    derived = scalarize.weights_by_autodiff(scalarize.smooth_wc)
+    pref = jnp.array([0.2, 0.5, 0.3])
+    np.testing.assert_allclose(
+        derived(values, pref, j_ub, 0.2),
+        scalarize.smooth_wc_weights(values, pref, j_ub, 0.2),
+        rtol=1e-5,
+    )
+    # a zero preference gives a zero weight (its objective drops out of w * p), not NaN
+    pref = jnp.array([1.0, 0.0, 0.0])
+    corner = derived(values, pref, j_ub, 0.2)
+    lam = scalarize.smooth_wc_weights(values, pref, j_ub, 0.2)  # softmax([7.5, 0, 0])
+    np.testing.assert_allclose(corner, [lam[0], 0.0, 0.0], rtol=1e-6)
+    assert 0.99 < float(lam[0]) < 1.0 and float(lam[1]) > 0.0
 
 
 def test_augmented_coefficients_by_hand_and_as_a_gradient():

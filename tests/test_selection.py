@@ -155,7 +155,7 @@ def test_load_sweep_returns_the_chosen_policies(chosen_run):
     np.testing.assert_array_equal(run.state.iteration, [25] * 4)
     np.testing.assert_array_equal(run.chosen.iteration, front["selection"]["chosen_iteration"])
     # the chosen policies, evaluated as the sweep did, give front.json's returns
-    from wcac_jax.trainers import make_evaluate
+    from wcac_jax.algos import make_evaluate
 
     evaluate = make_evaluate(run.config.train_config(), run.env, run.config.eval_episodes)
     keys = jax.vmap(lambda i: jax.random.fold_in(jax.random.key(run.config.seed), i))(jnp.arange(4))

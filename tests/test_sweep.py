@@ -378,7 +378,7 @@ def test_chunk_padding_runs_no_iterations():
     import jax
     import jax.numpy as jnp
 
-    from wcac_jax.train import Trainer
+    from wcac_jax.runtime import Trainer
     from wcac_jax.utopia import PREF_AXIS
 
     class State(NamedTuple):

@@ -1,25 +1,27 @@
 """wcac_jax: smoothed weighted-Chebyshev deep actor-critic for multi-objective RL in JAX.
 
-The public API: scalarizations (`smooth_wc`, `wc`, `linear` and their weights), the
-paper's training program (`TrainConfig`, `make_train`, `make_trainer`, `make_evaluate`),
-the practical one (`PPOConfig`, `ppo.make_trainer`), named presets and per-environment
-defaults (`presets`), and the building blocks as modules (`networks`, `critic`, `actor`,
-`utopia`, `envs`).
+The public API: scalarizations (`smooth_wc`, `wc`, `linear` and their weights, by name in
+`scalarize.SCALARIZATIONS`), the two updates by name (`algos`: the paper's,
+`PaperConfig`, and the practical one, `PracticalConfig`), one way to build and run
+either (`make_train`, `make_trainer`, `make_evaluate`), what both share (`runtime`),
+named presets and per-environment defaults (`presets`), and the building blocks as
+modules (`networks`, `critic`, `actor`, `utopia`, `envs`).
 """
 
-from wcac_jax import actor, critic, envs, networks, ppo, presets, scalarize, utopia
-from wcac_jax.config import TrainConfig
-from wcac_jax.ppo import PPOConfig
+from wcac_jax import actor, algos, critic, envs, networks, presets, runtime, scalarize, utopia
+from wcac_jax.algos import PaperConfig, PracticalConfig, make_evaluate, make_train, make_trainer
+from wcac_jax.runtime import Trainer, UpdateState
 from wcac_jax.scalarize import linear, smooth_wc, smooth_wc_weights, wc, wc_weights
-from wcac_jax.train import TrainState, make_evaluate, make_train, make_trainer
 
 __version__ = "0.1.0"
 
 __all__ = [
-    "PPOConfig",
-    "TrainConfig",
-    "TrainState",
+    "PaperConfig",
+    "PracticalConfig",
+    "Trainer",
+    "UpdateState",
     "actor",
+    "algos",
     "critic",
     "envs",
     "linear",
@@ -27,8 +29,8 @@ __all__ = [
     "make_train",
     "make_trainer",
     "networks",
-    "ppo",
     "presets",
+    "runtime",
     "scalarize",
     "smooth_wc",
     "smooth_wc_weights",

@@ -15,7 +15,7 @@ import time
 
 import jax
 
-from wcac_jax import distributed, envs, pareto, presets, trainers
+from wcac_jax import algos, distributed, envs, pareto, presets
 from wcac_jax.presets import PAPER_PREFS
 from wcac_jax.sweep import SweepConfig, SweepError, TrainingDiverged, make_env, run_sweep
 
@@ -39,56 +39,66 @@ def _parse_floats(text: str, flag: str) -> tuple[float, ...]:
         raise SweepError(f"{flag} {text!r} is not a ','-separated list of numbers") from None
 
 
-# (flag dest, config field, meaning): flags that set a field of the training config; each
-# defaults to None, i.e. the preset's (or the environment's default's) value. Scripts that
-# build a sweep of their own take them too (`add_config_flags`, `apply_config_flags`).
-CONFIG_FLAGS = (
-    ("envs_per_pref", "num_envs", "parallel environments N per preference"),
-    ("scalarization", "scalarization", "actor direction: smooth_wc, wc, linear (or mgda, paper)"),
-    ("mu", "mu", "smoothing temperature mu"),
-    (
-        "j_ub",
-        "j_ub",
-        "fixed utopia point, e.g. '2000,1000' (default: the environment's; with the "
-        "practical update it also sets --utopia fixed)",
-    ),
-    ("gamma", "gamma", "discount"),
-    ("width", "width", "network width w"),
-    ("depth", "depth", "network depth D"),
-    ("rollout_steps", "rollout_steps", "L: rollout steps per iteration"),
-    ("critic_steps", "critic_steps", "paper: K TD steps per iteration"),
-    ("network", "network", "paper: 'paper' or 'mlp' (actor and critics)"),
-    ("actor_lr", "actor_lr", "paper: alpha"),
-    ("critic_lr", "critic_lr", "paper: beta"),
-    ("actor_optimizer", "actor_optimizer", "paper: normalized, normalized_harmonic, adam, sgd"),
-    ("utopia", "utopia", "practical: 'estimated' (by the sweep) or 'fixed' (--j-ub)"),
-    ("utopia_margin", "utopia_margin", "practical: the estimated utopia's margin over the best"),
-    (
-        "augment",
-        "augment",
-        "practical: rho of the augmented scalarization S + rho * sum_i (z_i - J_i)",
-    ),
-    ("learning_rate", "learning_rate", "practical: Adam's step size"),
-    ("anneal_lr", "anneal_lr", "practical: decay the step size linearly to 0 over the run"),
-    ("num_epochs", "num_epochs", "practical: epochs per rollout"),
-    ("num_minibatches", "num_minibatches", "practical: minibatches per epoch"),
-)
+# Config flags are generated from the registered updates' configuration fields
+# (`wcac_jax.algos`, each field's doc its help): one flag per field, named after it but
+# where `FLAG_DESTS` says otherwise; `num_iterations` has none (`--steps-per-pref` sets
+# it). Each defaults to None, i.e. the preset's (or the environment's default's) value.
+# Scripts that build a sweep of their own take them too (`add_config_flags`,
+# `apply_config_flags`).
+FLAG_DESTS = {"num_envs": "envs_per_pref"}
+_NO_FLAG = ("num_iterations",)
+# what a flag does beyond setting its field
+_FLAG_NOTES = {
+    "j_ub": "e.g. '2000,1000'; with the practical update it also sets --utopia fixed",
+}
+_TYPES = {"int": int, "float": float, "bool": bool}
+
+
+def _config_fields() -> dict[str, dict[str, dataclasses.Field]]:
+    """`{field name: {update name: its Field}}` over every registered update, in
+    declaration order (the paper's fields first)."""
+    out: dict[str, dict[str, dataclasses.Field]] = {}
+    for name, algo in algos.ALGOS.items():
+        for f in dataclasses.fields(algo.config):
+            if f.name not in _NO_FLAG:
+                out.setdefault(f.name, {})[name] = f
+    return out
+
+
+def _default_text(value) -> str:
+    return "none" if value is None else str(value)
+
+
+def _meaning(field_name: str, per_update: dict[str, dataclasses.Field]) -> str:
+    """A flag's help: the field's doc, which updates it applies to and each one's default."""
+    docs = {f.metadata["doc"] for f in per_update.values()}
+    if len(docs) == 1:
+        doc = docs.pop()
+        if len(per_update) < len(algos.ALGOS):
+            doc = f"{' and '.join(per_update)} only: {doc}"
+    else:
+        doc = "; ".join(f"{name}: {f.metadata['doc']}" for name, f in per_update.items())
+    if field_name in _FLAG_NOTES:
+        doc += f" ({_FLAG_NOTES[field_name]})"
+    defaults = ", ".join(f"{name} {_default_text(f.default)}" for name, f in per_update.items())
+    return f"{doc} (preset default: {defaults})"
+
+
+def _config_flags() -> tuple[tuple[str, str, str], ...]:
+    return tuple(
+        (FLAG_DESTS.get(name, name), name, _meaning(name, per_update))
+        for name, per_update in _config_fields().items()
+    )
+
+
+# (flag dest, config field, meaning), one per configuration field
+CONFIG_FLAGS = _config_flags()
+# flag dest -> argparse type (`bool`: a `--x` / `--no-x` switch; the rest strings,
+# `--j-ub` parsed by `apply_config_flags`)
 _FLAG_TYPES = {
-    "envs_per_pref": int,
-    "mu": float,
-    "gamma": float,
-    "width": int,
-    "depth": int,
-    "rollout_steps": int,
-    "critic_steps": int,
-    "actor_lr": float,
-    "critic_lr": float,
-    "learning_rate": float,
-    "anneal_lr": bool,
-    "utopia_margin": float,
-    "augment": float,
-    "num_epochs": int,
-    "num_minibatches": int,
+    FLAG_DESTS.get(name, name): _TYPES[next(iter(per_update.values())).type]
+    for name, per_update in _config_fields().items()
+    if next(iter(per_update.values())).type in _TYPES
 }
 
 
@@ -99,21 +109,25 @@ def _flag(dest: str) -> str:
 def add_config_flags(parser: argparse.ArgumentParser, skip: tuple[str, ...] = ()) -> None:
     """Adds one flag per `CONFIG_FLAGS` entry but those in `skip` (default None: the
     configuration's own value)."""
+    group = parser.add_argument_group(
+        "training configuration (each flag changes one field of the preset's or the "
+        "environment's default configuration; it must be a field of that update)"
+    )
     for dest, _, meaning in CONFIG_FLAGS:
         if dest in skip:
             continue
         kind = _FLAG_TYPES.get(dest, str)
-        parser.add_argument(
+        group.add_argument(
             _flag(dest),
             dest=dest,
             default=None,
-            help=f"{meaning} (default: the preset's)",
+            help=meaning.replace("%", "%%"),
             # a switch `--x` / `--no-x` for a yes/no field
             **({"action": argparse.BooleanOptionalAction} if kind is bool else {"type": kind}),
         )
 
 
-def apply_config_flags(args, train: trainers.AnyConfig, name: str) -> trainers.AnyConfig:
+def apply_config_flags(args, train: algos.AnyConfig, name: str) -> algos.AnyConfig:
     """`train` with every `CONFIG_FLAGS` flag given in `args` applied over it.
 
     On the practical update `--j-ub` means a fixed utopia point, so it also sets `utopia`
@@ -136,7 +150,7 @@ def apply_config_flags(args, train: trainers.AnyConfig, name: str) -> trainers.A
             continue
         if field_name not in fields:
             raise SweepError(
-                f"{_flag(dest)} does not apply to {name}, a {trainers.kind(train)} configuration"
+                f"{_flag(dest)} does not apply to {name}, a {algos.kind(train)} configuration"
             )
         changes[field_name] = _parse_floats(value, _flag(dest)) if dest == "j_ub" else value
     if "utopia" in fields:
@@ -156,13 +170,30 @@ def apply_config_flags(args, train: trainers.AnyConfig, name: str) -> trainers.A
         raise SweepError(str(err)) from None
 
 
+def _config_changes(config) -> str:
+    """`field=value` of `config` where it differs from its update's own defaults."""
+    base = type(config)()
+    return ", ".join(
+        f"{f.name}={getattr(config, f.name):.6g}"
+        if isinstance(getattr(config, f.name), float)
+        else f"{f.name}={getattr(config, f.name)}"
+        for f in dataclasses.fields(config)
+        if f.name not in _NO_FLAG and getattr(config, f.name) != getattr(base, f.name)
+    )
+
+
 def _defaults_table() -> str:
     lines = ["each environment's default run (flags override it):"]
     for name in envs.names():
         d = presets.env_defaults(name)
+        changes = _config_changes(d.config)
+        options = ", ".join(f"--{k.replace('_', '-')} {v}" for k, v in d.env_options)
         text = (
-            f"{name}: {d.preset} ({trainers.kind(d.config)} update), "
-            f"{d.steps_per_pref:,} env steps per preference"
+            f"{name}: {d.preset} ({algos.kind(d.config)} update"
+            + (f"; {changes}" if changes else "")
+            + ")"
+            + (f" with {options}" if options else "")
+            + f", {d.steps_per_pref:,} env steps per preference"
             + (
                 f", each preference's best of its last {d.selection[0]} policies "
                 f"{d.selection[1]:,} env steps apart"
@@ -209,14 +240,19 @@ def build_parser() -> argparse.ArgumentParser:
         "practical (default: the environment's, see below)",
     )
     p.add_argument("--env", default="walker2d", help=f"environment: {', '.join(envs.names())}")
+    walker = dict(presets.env_defaults("walker2d").env_options)
     p.add_argument(
-        "--physics", default=None, help="walker2d physics: brax (fast, default) or gymnasium-v5"
+        "--physics",
+        default=None,
+        help="walker2d model: gymnasium-v5 (Gymnasium's v5 model, the paper's) or brax "
+        f"(Brax's model) (default: {walker['physics']})",
     )
     p.add_argument(
         "--engine",
         default=None,
-        help="walker2d physics engine: mjx (default; for accelerators) or mujoco (MuJoCo's "
-        "C engine, multi-threaded; several times faster on a CPU)",
+        help="walker2d physics engine: mujoco (MuJoCo's C engine, multi-threaded; several "
+        "times faster on a CPU) or mjx (for accelerators) (default: "
+        f"{walker['engine']})",
     )
     p.add_argument(
         "--episode-length",

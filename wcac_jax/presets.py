@@ -3,11 +3,11 @@ Playground's registry keeps per-environment parameters).
 
 Presets, by name (`--preset NAME` on the command line):
 
-- `paper`: the paper's recipe, `TrainConfig()` exactly (its network, the normalised
+- `paper`: the paper's recipe, `PaperConfig()` exactly (its network, the normalised
   actor step, its `mu`, `J_ub`, learning rates), and its own nine preferences
   (`PAPER_PREFS`), on any environment;
 - `practical`: the same smoothed weighted-Chebyshev direction optimised as on-policy deep
-  RL is in practice (`ppo.PPOConfig()`: GAE, clipped ratio, epochs of minibatches,
+  RL is in practice (`PracticalConfig()`: GAE, clipped ratio, epochs of minibatches,
   Adam, observation and return normalisation, a utopia point the sweep estimates).
 
 Each registered environment has a default (`ENV_DEFAULTS`): the configuration and budget
@@ -21,9 +21,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from wcac_jax.config import TrainConfig
-from wcac_jax.ppo import PPOConfig
-from wcac_jax.trainers import AnyConfig
+from wcac_jax.algos import ALGOS, AnyConfig, PaperConfig, PracticalConfig
 
 # The paper's nine preferences (its Fig. 3): uneven steps, finer near the ends.
 PAPER_PREFS = (
@@ -40,20 +38,19 @@ PAPER_PREFS = (
 DEFAULT_N_PREFS = 9  # evenly spaced on the simplex, unless a preset or flag says otherwise
 
 
+# a preset per registered update (`wcac_jax.algos`), its configuration's defaults
+PRESETS = tuple(ALGOS)
+
+
 def preset(name: str) -> AnyConfig:
-    """The named configuration (`paper` or `practical`).
+    """The named configuration (`paper` or `practical`): the update's own defaults.
 
     Raises:
       ValueError: naming the bad value and the valid ones.
     """
-    if name == "paper":
-        return TrainConfig()
-    if name == "practical":
-        return PPOConfig()
-    raise ValueError(f"unknown preset {name!r}; valid: {', '.join(PRESETS)}")
-
-
-PRESETS = ("paper", "practical")
+    if name not in PRESETS:
+        raise ValueError(f"unknown preset {name!r}; valid: {', '.join(PRESETS)}")
+    return ALGOS[name].config()
 
 
 @dataclass(frozen=True)
@@ -72,6 +69,7 @@ class Defaults:
         each preference reports the best of its last `select_last` policies,
         `select_every` env steps apart (`wcac_jax.selection`), when the budget leaves
         room for them; `(1, 0)`: the final policy.
+      fallback: the environment has no entry of its own (`env_defaults`); `note` says so.
     """
 
     preset: str
@@ -80,6 +78,7 @@ class Defaults:
     note: str
     env_options: tuple[tuple[str, str], ...] = ()
     selection: tuple[int, int] = (1, 0)
+    fallback: bool = False
 
     def selection_for(self, preset: str | None) -> tuple[int, int]:
         """`selection` for a run of the named `preset` (`None`: this default's): the
@@ -92,7 +91,7 @@ class Defaults:
 # small policy noise (with a learned std the front of stochastic policies is the convex
 # hull), a sharp mu for its small values, a harmonic normalised step; the critics continue
 # from one iteration to the next.
-BANDIT = TrainConfig(
+BANDIT = PaperConfig(
     num_envs=32,
     critic_steps=2,
     rollout_steps=4,
@@ -111,7 +110,7 @@ BANDIT = TrainConfig(
 )
 # Deep Sea Treasure (experiments/pareto_exploration.py): a softmax over one-hot cells,
 # Adam on the direction, a smaller critic step for values of magnitude ~100.
-DEEP_SEA_TREASURE = TrainConfig(
+DEEP_SEA_TREASURE = PaperConfig(
     num_envs=16,
     critic_steps=10,
     rollout_steps=10,
@@ -128,7 +127,7 @@ DEEP_SEA_TREASURE = TrainConfig(
     projection_radius=math.inf,
 )
 # The tabular MOMDP (experiments/convergence_rate.py): the harmonic step of the theory.
-TABULAR = TrainConfig(
+TABULAR = PaperConfig(
     num_envs=16,
     critic_steps=10,
     rollout_steps=10,
@@ -148,7 +147,7 @@ TABULAR = TrainConfig(
 ENV_DEFAULTS: dict[str, Defaults] = {
     "walker2d": Defaults(
         "practical",
-        PPOConfig(),
+        PracticalConfig(),
         1_000_000,
         "the practical preset at 1M env steps per preference on Gymnasium's v5 model "
         "stepped by MuJoCo's C engine (--engine mjx --physics brax for accelerators): a "
@@ -183,7 +182,23 @@ ENV_DEFAULTS: dict[str, Defaults] = {
 }
 
 
+# An environment registered without its own entry above: the practical update, the one
+# that works without tuning (Walker2d's default); the note says so in `--help` and
+# wherever the default's note is shown.
+FALLBACK_STEPS_PER_PREF = 100_000
+FALLBACK_NOTE = (
+    "no tuned defaults for this environment: the practical preset at "
+    f"{FALLBACK_STEPS_PER_PREF:,} env steps per preference (--preset paper for the "
+    "paper's recipe)"
+)
+
+
 def env_defaults(env: str) -> Defaults:
-    """`env`'s default run; environments registered without one get the paper's recipe
-    at 100,000 env steps per preference."""
-    return ENV_DEFAULTS.get(env, Defaults("paper", TrainConfig(), 100_000, "the paper's recipe"))
+    """`env`'s default run; an environment registered without one gets the practical
+    preset at `FALLBACK_STEPS_PER_PREF` env steps per preference, with `FALLBACK_NOTE`
+    (`Defaults.fallback` is then true)."""
+    if env in ENV_DEFAULTS:
+        return ENV_DEFAULTS[env]
+    return Defaults(
+        "practical", PracticalConfig(), FALLBACK_STEPS_PER_PREF, FALLBACK_NOTE, fallback=True
+    )

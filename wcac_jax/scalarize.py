@@ -179,17 +179,40 @@ class Scalarization(NamedTuple):
     weights: _ValueFn
 
 
-SCALARIZATIONS: dict[str, Scalarization] = {
-    "smooth_wc": Scalarization(smooth_wc, smooth_wc_weights),
-    "wc": Scalarization(lambda v, p, z, mu: wc(v, p, z), lambda v, p, z, mu: wc_weights(v, p, z)),
-    "linear": Scalarization(
-        lambda v, p, z, mu: linear(v, p), lambda v, p, z, mu: linear_weights(v, p)
-    ),
-}
+def weights_by_autodiff(value: _ValueFn) -> _ValueFn:
+    """The objective weights of `value` from its gradient: `w_i = -dS/dJ_i / p_i` where
+    `p_i > 0`, and 0 where `p_i = 0`.
+
+    Exact for a scalarization that sees `J` only through the regrets `p_i (J_ub_i - J_i)`
+    (as every one here does): its gradient vanishes where `p_i = 0`, so `w * p` there is
+    0 whatever `w_i` is. A scalarization that also weighs objectives with `p_i = 0` needs
+    weights of its own.
+    """
+
+    def weights(values, pref, j_ub, mu):
+        grad = jax.grad(value)(values, pref, j_ub, mu)
+        active = pref > 0
+        return jnp.where(active, -grad / jnp.where(active, pref, 1.0), 0.0)
+
+    return weights
+
+
+def register(name: str, value: _ValueFn, weights: _ValueFn | None = None) -> None:
+    """Adds a scalarization under `name` (`weights` default: `weights_by_autodiff`).
+    Registered names are valid `scalarization` values of both updates and indices of the
+    traced direction (`wcac_jax.runtime.TRACED_DIRECTIONS`), in registration order."""
+    SCALARIZATIONS[name] = Scalarization(value, weights or weights_by_autodiff(value))
+
+
+# name -> scalarization; the order is that of the traced direction index
+SCALARIZATIONS: dict[str, Scalarization] = {}
+register("smooth_wc", smooth_wc, smooth_wc_weights)
+register("wc", lambda v, p, z, mu: wc(v, p, z), lambda v, p, z, mu: wc_weights(v, p, z))
+register("linear", lambda v, p, z, mu: linear(v, p), lambda v, p, z, mu: linear_weights(v, p))
 
 
 def get(name: str) -> Scalarization:
-    """Looks up a scalarization by name (`smooth_wc`, `wc` or `linear`).
+    """Looks up a registered scalarization by name (`smooth_wc`, `wc`, `linear`, ...).
 
     Raises:
       ValueError: naming the bad value and the valid ones.

@@ -38,7 +38,7 @@ import numpy as np
 from wcac_jax import scalarize, utopia
 
 # `utopia_point`'s margin and spread floor: those of the practical preset's own estimate
-# (`PPOConfig.utopia_margin`, `utopia_min_spread`)
+# (`PracticalConfig.utopia_margin`, `utopia_min_spread`)
 MARGIN = 0.1
 MIN_SPREAD = 1.0
 

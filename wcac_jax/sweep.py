@@ -37,16 +37,21 @@ import jax.numpy as jnp
 import numpy as np
 from jax.sharding import PartitionSpec as P
 
-from wcac_jax import checkpoint, distributed, envs, selection, trainers
-from wcac_jax.config import TrainConfig
+from wcac_jax import algos, checkpoint, distributed, envs, selection
+from wcac_jax.algos import PaperConfig, make_evaluate, make_trainer
 from wcac_jax.outputs import json_bytes, summarize, unwritable_dir, write_atomic, write_outputs
 from wcac_jax.presets import PAPER_PREFS
-from wcac_jax.train import TRACED_DIRECTIONS, Trainer, TrainState, resolve_j_ub, with_env_steps
-from wcac_jax.trainers import make_evaluate, make_trainer
+from wcac_jax.runtime import (
+    TRACED_DIRECTIONS,
+    Trainer,
+    UpdateState,
+    resolve_j_ub,
+    with_env_steps,
+)
 from wcac_jax.utopia import DEVICE_AXIS, PREF_AXIS
 
 PAPER_STEPS_PER_PREF = 1_000_000
-MAX_ITERATIONS = 2**31 - 1  # `TrainState.iteration` is int32
+MAX_ITERATIONS = 2**31 - 1  # `UpdateState.iteration` is int32
 
 
 class SweepError(ValueError):
@@ -65,8 +70,8 @@ class SweepConfig:
       prefs: `P` preference vectors, each on the simplex.
       env: registered environment name.
       env_options: keyword options of the environment (e.g. `physics`).
-      train: the per-preference training configuration, the paper's (`TrainConfig`)
-        or the practical one (`ppo.PPOConfig`); its `num_iterations` is derived from
+      train: the per-preference training configuration, the paper's (`PaperConfig`)
+        or the practical one (`PracticalConfig`); its `num_iterations` is derived from
         `steps_per_pref`.
       steps_per_pref: environment steps per preference (rounded up to whole iterations).
       seed: base seed; preference `i` uses `fold_in(key(seed), i)`.
@@ -85,7 +90,7 @@ class SweepConfig:
     prefs: tuple[tuple[float, ...], ...]
     env: str = "walker2d"
     env_options: dict = field(default_factory=dict)
-    train: trainers.AnyConfig = field(default_factory=TrainConfig)
+    train: algos.AnyConfig = field(default_factory=PaperConfig)
     steps_per_pref: int = 100_000
     seed: int = 0
     eval_episodes: int = 8
@@ -139,7 +144,7 @@ class SweepConfig:
         every = math.ceil(self.select_every / self.train.env_steps_per_iteration)
         return selection.candidate_iterations(self.num_iterations, self.select_last, every)
 
-    def train_config(self) -> trainers.AnyConfig:
+    def train_config(self) -> algos.AnyConfig:
         return self.train.replace(num_iterations=self.num_iterations)
 
     def to_dict(self) -> dict:
@@ -147,7 +152,7 @@ class SweepConfig:
             "prefs": [list(p) for p in self.prefs],
             "env": self.env,
             "env_options": dict(self.env_options),
-            "train": trainers.to_dict(self.train_config()),
+            "train": algos.to_dict(self.train_config()),
             "steps_per_pref": self.steps_per_pref,
             "seed": self.seed,
             "eval_episodes": self.eval_episodes,
@@ -164,7 +169,7 @@ class SweepConfig:
             prefs=tuple(tuple(float(x) for x in p) for p in d["prefs"]),
             env=d["env"],
             env_options=dict(d["env_options"]),
-            train=trainers.from_dict(d["train"]),
+            train=algos.from_dict(d["train"]),
             steps_per_pref=int(d["steps_per_pref"]),
             seed=int(d["seed"]),
             eval_episodes=int(d["eval_episodes"]),
@@ -350,7 +355,7 @@ class LoadedSweep(NamedTuple):
       config: the sweep's configuration (from `config.json`).
       env: its environment (`make_env(config)`), the one `trainer` was built for.
       trainer: the pure `init`/`step`/`run`/`mean_action` of its training setup.
-      state: the last checkpointed `TrainState`, every leaf with the preference axis
+      state: the last checkpointed `UpdateState`, every leaf with the preference axis
         first (`[P, ...]`); `state.iteration[i]` iterations are done.
       metrics: per-iteration metrics `[P, T, ...]` (zeros past `state.iteration`), with
         `train/env_steps` (int64) counted on the host from `train/iteration`.
@@ -362,9 +367,9 @@ class LoadedSweep(NamedTuple):
     config: SweepConfig
     env: Any
     trainer: Trainer
-    state: TrainState
+    state: UpdateState
     metrics: dict
-    chosen: TrainState | None = None
+    chosen: UpdateState | None = None
 
 
 def load_sweep(out: str) -> LoadedSweep:

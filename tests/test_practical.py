@@ -1,4 +1,4 @@
-"""The practical update (`wcac_jax.ppo`): its formulas, its loss and its minibatch
+"""The practical update (`wcac_jax.algos.practical`): its formulas, its loss and its minibatch
 epochs against hand-computed values, its config, learning on the concave bandit (known
 answer) with the traced directions, and the augmented scalarization on a bandit with a
 weakly Pareto end (known answer)."""
@@ -13,9 +13,10 @@ import optax
 import pytest
 from brax.training.acme import running_statistics, specs
 
-from wcac_jax import envs, networks, ppo, trainers, utopia
+from wcac_jax import algos, envs, networks, utopia
+from wcac_jax.algos import practical
 from wcac_jax.envs import concave_bandit as cb
-from wcac_jax.train import TRACED_DIRECTIONS
+from wcac_jax.runtime import TRACED_DIRECTIONS
 
 
 def test_gae_terminal_and_truncation_by_hand():
@@ -31,7 +32,7 @@ def test_gae_terminal_and_truncation_by_hand():
     # A3 = .5; A2 = 1; A1 = -1; A0 = 1 + .25 * (-1) = .75
     expected = np.array([0.75, -1.0, 1.0, 0.5])
     # two objectives: the second is the first times 2 (GAE is linear in r and V)
-    adv = jax.jit(ppo.gae, static_argnums=(5, 6))(
+    adv = jax.jit(practical.gae, static_argnums=(5, 6))(
         jnp.stack([v, 2 * v], -1),
         jnp.stack([v_next, 2 * v_next], -1),
         jnp.stack([r, 2 * r], -1),
@@ -47,7 +48,7 @@ def test_clipped_surrogate_and_its_gradient_by_hand():
     log_ratio = jnp.log(jnp.array([1.5, 0.5, 1.1, 0.7]))
     adv = jnp.array([1.0, 1.0, -2.0, -1.0])
     # min(rho A, clip(rho, .8, 1.2) A): 1.2 (clipped), 0.5, -2.2, -0.8 (clipped)
-    value, grad = jax.jit(jax.value_and_grad(ppo.clipped_surrogate), static_argnums=2)(
+    value, grad = jax.jit(jax.value_and_grad(practical.clipped_surrogate), static_argnums=2)(
         log_ratio, adv, 0.2
     )
     np.testing.assert_allclose(value, (1.2 + 0.5 - 2.2 - 0.8) / 4, rtol=1e-6)
@@ -57,7 +58,7 @@ def test_clipped_surrogate_and_its_gradient_by_hand():
 
 def test_return_normaliser_by_hand():
     # gamma = .5, one env starting at a discounted return of 2; the episode ends at t=1
-    acc, seen = jax.jit(ppo.accumulate_returns, static_argnums=3)(
+    acc, seen = jax.jit(practical.accumulate_returns, static_argnums=3)(
         jnp.array([[2.0]]), jnp.ones((3, 1, 1)), jnp.array([[0.0], [1.0], [0.0]]), 0.5
     )
     np.testing.assert_allclose(seen[:, 0, 0], [2.0, 2.0, 1.0])  # .5*2+1, .5*2+1, 0*.5+1
@@ -67,14 +68,16 @@ def test_return_normaliser_by_hand():
     )
     # population std of (2, 2, 1): sqrt(2/9)
     np.testing.assert_allclose(stats.std, [math.sqrt(2.0 / 9.0)], rtol=1e-5)
-    scaled = ppo.scale_rewards(jnp.array([[3.0, -30.0]]), jnp.array([2.0, 1.0]), 10.0)
+    scaled = practical.scale_rewards(jnp.array([[3.0, -30.0]]), jnp.array([2.0, 1.0]), 10.0)
     np.testing.assert_allclose(scaled, [[1.5, -10.0]])
 
 
 def test_observation_normaliser_by_hand():
     env = envs.make("concave_bandit")
-    config = ppo.PPOConfig(num_envs=2, rollout_steps=4, num_minibatches=2, obs_clip=10.0)
-    trainer = ppo.make_trainer(config, env)
+    config = practical.PracticalConfig(
+        num_envs=2, rollout_steps=4, num_minibatches=2, obs_clip=10.0
+    )
+    trainer = practical.make_trainer(config, env)
     stats = running_statistics.update(
         running_statistics.init_state(specs.Array((1,), jnp.float32)), jnp.array([[0.0], [2.0]])
     )  # mean 1, std 1
@@ -83,7 +86,7 @@ def test_observation_normaliser_by_hand():
 
 
 def test_advantage_normalisation_by_hand():
-    out = ppo.normalize_advantages(jnp.array([1.0, 3.0]))
+    out = practical.normalize_advantages(jnp.array([1.0, 3.0]))
     np.testing.assert_allclose(out, [-1.0, 1.0], rtol=1e-6)
 
 
@@ -95,7 +98,7 @@ def _constant_net(name: str):
     )
 
 
-def test_ppo_loss_by_hand():
+def test_minibatch_loss_by_hand():
     # a unit Gaussian whose mean is one parameter w (same at every state), a critic that
     # is one constant c; the batch was collected at w = 0 and the loss is taken at
     # w = 0.5, c = 2
@@ -114,9 +117,9 @@ def test_ppo_loss_by_hand():
         "critic_fixed": critic_fixed,
     }
     params = {"actor": {"net": {"w": jnp.array([0.5])}}, "critic": {"c": jnp.array([2.0])}}
-    config = ppo.PPOConfig(clip_eps=0.2, vf_coef=0.5, ent_coef=0.01)
+    config = practical.PracticalConfig(clip_eps=0.2, vf_coef=0.5, ent_coef=0.01)
     (loss, info), grads = jax.value_and_grad(
-        functools.partial(ppo.ppo_loss, config, policy, value_net), has_aux=True
+        functools.partial(practical.minibatch_loss, config, policy, value_net), has_aux=True
     )(params, batch)
     # log ratio = -(a - .5)^2/2 + a^2/2: -0.125 at a = 0, 0.375 at a = 1
     r0, r1 = math.exp(-0.125), math.exp(0.375)  # 0.8825 (inside the clip), 1.4550
@@ -141,7 +144,7 @@ def test_minibatch_epochs_visit_every_sample_once_per_epoch():
         return mb["scale"] * p * jnp.sum(mb["x"]), mb["x"]
 
     data = {"x": jnp.arange(6.0)}
-    (p, _), seen = jax.jit(ppo.minibatch_epochs, static_argnums=(0, 1, 6, 7))(
+    (p, _), seen = jax.jit(practical.minibatch_epochs, static_argnums=(0, 1, 6, 7))(
         loss_fn,
         optax.sgd(1.0),
         jnp.float32(1.0),
@@ -161,13 +164,13 @@ def test_minibatch_epochs_visit_every_sample_once_per_epoch():
 
 def test_config_validates_and_round_trips():
     with pytest.raises(ValueError, match="num_minibatches 3 must divide"):
-        ppo.PPOConfig(num_envs=4, rollout_steps=4, num_minibatches=3)
+        practical.PracticalConfig(num_envs=4, rollout_steps=4, num_minibatches=3)
     with pytest.raises(ValueError, match="scalarization must be one of"):
-        ppo.PPOConfig(scalarization="mgda")
+        practical.PracticalConfig(scalarization="mgda")
     with pytest.raises(ValueError, match="utopia must be one of"):
-        ppo.PPOConfig(utopia="guess")
+        practical.PracticalConfig(utopia="guess")
     with pytest.raises(ValueError, match="clip_eps must be > 0"):
-        ppo.PPOConfig(clip_eps=0.0)
+        practical.PracticalConfig(clip_eps=0.0)
     # finite in float64 but not in float32 (the program's type), or not finite at all
     bad = {
         "j_ub": (1e39, 1.0),
@@ -180,21 +183,27 @@ def test_config_validates_and_round_trips():
     }
     for name, value in bad.items():
         with pytest.raises(ValueError, match=f"^{name} must be"):
-            ppo.PPOConfig(**{name: value})
-    config = ppo.PPOConfig(j_ub=[1, 2], utopia="fixed")
+            practical.PracticalConfig(**{name: value})
+    config = practical.PracticalConfig(j_ub=[1, 2], utopia="fixed")
     assert config.j_ub == (1.0, 2.0)
     assert config.env_steps_per_iteration == 16 * 128
-    d = trainers.to_dict(config)
-    assert d["kind"] == "ppo"
-    assert trainers.from_dict(d) == config
+    d = algos.to_dict(config)
+    assert d["kind"] == "practical"
+    assert algos.from_dict(d) == config
+    # what older runs recorded: the kind "ppo", and no field added since (its default)
+    legacy = {**d, "kind": "ppo"}
+    del legacy["augment"], legacy["anneal_lr"]
+    assert algos.from_dict(legacy) == config
+    with pytest.raises(ValueError, match="no field 'clip'"):
+        algos.from_dict({**d, "clip": 0.2})
 
 
 def test_annealed_learning_rate_by_hand():
-    config = ppo.PPOConfig(
+    config = practical.PracticalConfig(
         num_envs=4, rollout_steps=4, num_iterations=2, num_epochs=1, num_minibatches=2
     )
-    assert ppo.learning_rate(config.replace(learning_rate=1e-3)) == 1e-3  # constant
-    schedule = ppo.learning_rate(config.replace(learning_rate=1e-3, anneal_lr=True))
+    assert practical.learning_rate(config.replace(learning_rate=1e-3)) == 1e-3  # constant
+    schedule = practical.learning_rate(config.replace(learning_rate=1e-3, anneal_lr=True))
     # 2 iterations x 1 epoch x 2 minibatches = 4 updates: 1e-3 falling by 1e-3 / 4
     for count, expected in [(0, 1e-3), (1, 7.5e-4), (2, 5e-4), (3, 2.5e-4), (4, 0.0), (9, 0.0)]:
         assert float(schedule(count)) == pytest.approx(expected, rel=1e-6, abs=1e-12)  # f32
@@ -204,7 +213,7 @@ def test_annealed_run_stops_moving_after_its_last_update():
     """With `anneal_lr` and `num_iterations = 1` the step size reaches 0 after the run's 2
     updates, so a second iteration leaves the policy where the first put it."""
     env = envs.make("concave_bandit")
-    config = ppo.PPOConfig(
+    config = practical.PracticalConfig(
         num_envs=4,
         rollout_steps=4,
         num_iterations=1,
@@ -213,7 +222,7 @@ def test_annealed_run_stops_moving_after_its_last_update():
         anneal_lr=True,
         utopia="fixed",
     )
-    trainer = ppo.make_trainer(config, env)
+    trainer = practical.make_trainer(config, env)
     pref = jnp.array([[0.5, 0.5]])
     state = jax.vmap(trainer.init, in_axes=(None, 0))(jax.random.key(0), pref)
     step = jax.jit(jax.vmap(lambda s, p: trainer.run(s, p, 1)[0], axis_name=utopia.PREF_AXIS))
@@ -227,7 +236,9 @@ def test_annealed_run_stops_moving_after_its_last_update():
 
 def test_small_policy_head_and_zero_initial_advantage_weights():
     env = envs.make("walker2d")
-    trainer = ppo.make_trainer(ppo.PPOConfig(num_envs=2, rollout_steps=4, num_minibatches=2), env)
+    trainer = practical.make_trainer(
+        practical.PracticalConfig(num_envs=2, rollout_steps=4, num_minibatches=2), env
+    )
     actor = trainer.policy.init(jax.random.key(0))
     obs = 3.0 * jax.random.normal(jax.random.key(1), (64, env.observation_size))
     stats = running_statistics.init_state(specs.Array((env.observation_size,), jnp.float32))
@@ -242,7 +253,7 @@ def test_small_policy_head_and_zero_initial_advantage_weights():
 
 
 ITERS = 60
-CONFIG = ppo.PPOConfig(
+CONFIG = practical.PracticalConfig(
     num_envs=16,
     rollout_steps=8,
     num_epochs=4,
@@ -260,7 +271,7 @@ DIRECTIONS = ("smooth_wc", "linear")
 @pytest.fixture(scope="module")
 def bandit_runs():
     env = envs.make("concave_bandit")
-    trainer = ppo.make_trainer(CONFIG, env)
+    trainer = practical.make_trainer(CONFIG, env)
     n_p, n_d = len(PREFS), len(DIRECTIONS)
     keys = jnp.tile(jax.random.split(jax.random.key(0), n_p), n_d)
     prefs = jnp.tile(jnp.asarray(PREFS), (n_d, 1))
@@ -275,7 +286,7 @@ def bandit_runs():
     return {d: theta[k] for k, d in enumerate(DIRECTIONS)}, metrics
 
 
-def test_ppo_learns_the_bandit_ends_and_the_chebyshev_optimum(bandit_runs):
+def test_practical_learns_the_bandit_ends_and_the_chebyshev_optimum(bandit_runs):
     theta, metrics = bandit_runs
     assert np.all(np.isfinite(np.asarray(metrics["train/j_hat"])))
     for direction in DIRECTIONS:
@@ -308,7 +319,7 @@ class _KinkedBandit(cb.ConcaveBandit):
         )
 
 
-def test_augmented_ppo_finds_the_pareto_optimal_point_of_a_weakly_pareto_end():
+def test_augmented_practical_finds_the_pareto_optimal_point_of_a_weakly_pareto_end():
     """With `augment = rho`, `p = [1, 0]` ascends `(1 + rho) r_1 + rho r_2` (`lambda_1 = 1`).
     For a Gaussian `t ~ N(m, s^2)` its expectation is stationary where
     `1.5 (1 + rho) P(t > 1/3) = rho`, i.e. `m = 1/3 + s Phi^-1(rho / (1.5 (1 + rho)))`:
@@ -316,7 +327,7 @@ def test_augmented_ppo_finds_the_pareto_optimal_point_of_a_weakly_pareto_end():
     augmentation every `m` well below 1/3 is as good, and nothing holds `m` there."""
     rho = 0.2
     config = CONFIG.replace(augment=rho)
-    trainer = ppo.make_trainer(config, _KinkedBandit())
+    trainer = practical.make_trainer(config, _KinkedBandit())
     seeds = 4  # four independent runs of p = [1, 0], one program
     prefs = jnp.tile(jnp.array([[1.0, 0.0]]), (seeds, 1))
 

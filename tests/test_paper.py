@@ -14,17 +14,9 @@ import pytest
 from brax.envs.base import Env, State
 
 from wcac_jax import envs
-from wcac_jax.config import TrainConfig
+from wcac_jax.algos import PaperConfig, make_evaluate, make_train, make_trainer
 from wcac_jax.envs import concave_bandit as cb
-from wcac_jax.train import (
-    assemble,
-    env_steps,
-    finished_episode_return,
-    make_evaluate,
-    make_train,
-    make_trainer,
-    rollout,
-)
+from wcac_jax.runtime import assemble, env_steps, finished_episode_return, rollout
 from wcac_jax.types import EpisodeStats
 
 # None of these preferences has its optimum at the policies' start (theta ~ pi/4, the MLP
@@ -32,7 +24,7 @@ from wcac_jax.types import EpisodeStats
 PREFS = jnp.array([[0.8, 0.2], [0.35, 0.65], [0.2, 0.8]])
 # A fixed small policy noise: with a learned std the expected-return front of stochastic
 # policies is the convex hull of the bandit's front, not the front itself.
-BANDIT = TrainConfig(
+BANDIT = PaperConfig(
     num_envs=32,
     critic_steps=2,
     rollout_steps=4,
@@ -163,7 +155,7 @@ def test_wrong_j_ub_length_is_rejected(env):
 )
 def test_config_rejects_bad_values(field, value):
     with pytest.raises(ValueError, match=field):
-        TrainConfig(**{field: value})
+        PaperConfig(**{field: value})
 
 
 def test_mgda_reaches_the_ends_at_the_corners_and_stays_inside(env):
@@ -253,7 +245,7 @@ class _Cycle(Env):
         )
 
 
-CYCLE = TrainConfig(
+CYCLE = PaperConfig(
     num_envs=16,
     critic_steps=10,
     rollout_steps=2,

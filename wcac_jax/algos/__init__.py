@@ -1,0 +1,117 @@
+"""The updates, by name: `paper` (Algorithms 1 + 2, `algos.paper`) and `practical` (the
+same smoothed weighted-Chebyshev direction with a clipped surrogate, `algos.practical`).
+
+`ALGOS` maps each name to its configuration class and `make_trainer`; everything else
+dispatches on a configuration's class through it (`kind`), and every update returns
+the same `runtime.Trainer`, so sweeps, evaluation and checkpoints are shared. A new
+update is a module with a `Config` subclass and a `make_trainer`, and one line here.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import NamedTuple
+
+from wcac_jax import runtime
+from wcac_jax.algos import paper, practical
+from wcac_jax.algos.paper import PaperConfig
+from wcac_jax.algos.practical import PracticalConfig
+
+
+class Algo(NamedTuple):
+    """One update: its configuration class and `make_trainer(config, env) -> Trainer`."""
+
+    config: type
+    make_trainer: Callable
+
+
+ALGOS: dict[str, Algo] = {
+    "paper": Algo(PaperConfig, paper.make_trainer),
+    "practical": Algo(PracticalConfig, practical.make_trainer),
+}
+# kinds that older runs recorded, by their name now
+LEGACY_KINDS = {"ppo": "practical"}
+
+AnyConfig = PaperConfig | PracticalConfig
+
+
+def kind(config) -> str:
+    """The registered name of `config`'s update (`"paper"`, `"practical"`)."""
+    for name, algo in ALGOS.items():
+        if isinstance(config, algo.config):
+            return name
+    raise TypeError(f"not a training configuration: {type(config).__name__}")
+
+
+def config_class(name: str) -> type:
+    """The configuration class of the update `name` (legacy names accepted).
+
+    Raises:
+      ValueError: naming the bad value and the valid ones.
+    """
+    name = LEGACY_KINDS.get(name, name)
+    if name not in ALGOS:
+        raise ValueError(f"unknown training kind {name!r}; valid: {', '.join(ALGOS)}")
+    return ALGOS[name].config
+
+
+def make_trainer(config, env) -> runtime.Trainer:
+    """The pure `init`/`run`/`step` of `config`'s update for `env`."""
+    return ALGOS[kind(config)].make_trainer(config, env)
+
+
+def make_evaluate(
+    config, env, num_episodes: int, trainer: runtime.Trainer | None = None
+) -> Callable:
+    """`evaluate(state, key) -> metrics` of the mean policy of `config`'s update
+    (`runtime.make_evaluate`; `trainer` default: `make_trainer(config, env)`)."""
+    return runtime.make_evaluate(config, env, num_episodes, trainer or make_trainer(config, env))
+
+
+def make_train(config, env) -> Callable:
+    """Returns `train(key, pref, direction=None) -> (state, metrics)`: the whole run of
+    `config.num_iterations` iterations, one `lax.scan`.
+
+    `key` (a PRNG key) and `pref` (`[m]`) are traced, so a sweep is
+    `jax.jit(jax.vmap(train))(keys [P], prefs [P, m])`; `metrics` leaves are `[T, ...]`
+    (`[P, T, ...]` under the vmap). The optional `direction` is a traced integer index
+    into `runtime.TRACED_DIRECTIONS` (`0`: smooth_wc, `1`: wc, `2`: linear, then any
+    scalarization registered after them) that overrides `config.scalarization`, so
+    scalarizations can be compared inside one compiled program
+    (`jax.vmap(train)(keys, prefs, directions)`).
+    """
+    trainer = make_trainer(config, env)
+
+    def train(key, pref, direction=None):
+        return trainer.run(trainer.init(key, pref), pref, config.num_iterations, direction)
+
+    return train
+
+
+def to_dict(config) -> dict:
+    """`config.to_dict()` with its `kind` recorded first."""
+    return {"kind": kind(config), **config.to_dict()}
+
+
+def from_dict(d: dict):
+    """The inverse of `to_dict`. Also reads what older runs recorded: no `kind` (the
+    paper's update), the kind `"ppo"` (now `"practical"`), and fields missing because
+    they were added later (their defaults, which is what those runs ran with)."""
+    d = dict(d)
+    return config_class(d.pop("kind", "paper")).from_dict(d)
+
+
+__all__ = [
+    "ALGOS",
+    "Algo",
+    "AnyConfig",
+    "PaperConfig",
+    "PracticalConfig",
+    "config_class",
+    "from_dict",
+    "kind",
+    "make_evaluate",
+    "make_train",
+    "make_trainer",
+    "to_dict",
+]
