@@ -8,7 +8,11 @@ named presets and per-environment defaults (`presets`), and the building blocks 
 modules (`networks`, `critic`, `actor`, `utopia`, `envs`).
 """
 
-from wcac_jax import actor, algos, critic, envs, networks, presets, runtime, scalarize, utopia
+# envs first: it imports MJX (which Brax's modules import) without its optional-backend
+# notices
+from wcac_jax import envs  # isort: skip
+
+from wcac_jax import actor, algos, critic, networks, presets, runtime, scalarize, utopia
 from wcac_jax.algos import PaperConfig, PracticalConfig, make_evaluate, make_train, make_trainer
 from wcac_jax.runtime import Trainer, UpdateState
 from wcac_jax.scalarize import linear, smooth_wc, smooth_wc_weights, wc, wc_weights
