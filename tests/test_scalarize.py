@@ -1,4 +1,4 @@
-"""Pins every formula of SPEC §1 with hand-computed values."""
+"""Pins every formula of the scalarizations with hand-computed values."""
 
 import math
 

@@ -1,4 +1,4 @@
-"""Algorithm 1 (the actor) as pure functions, with the sign fixed as in SPEC §4.
+"""Algorithm 1 (the actor) as pure functions, with the sign fixed as in docs/algorithm.md.
 
 From `M = N * L` on-policy transitions and the averaged critics:
 

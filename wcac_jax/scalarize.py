@@ -1,7 +1,7 @@
 """Scalarizations of a vector of objective values, each a *minimisation* objective.
 
 Rewards are maximised, so every scalarization here is a regret to be minimised
-(SPEC §1): the hard weighted Chebyshev `g`, its log-sum-exp smoothing `G_mu`, and the
+(docs/algorithm.md): the hard weighted Chebyshev `g`, its log-sum-exp smoothing `G_mu`, and the
 linear baseline. Each function takes ONE sample (vectors of shape `[m]`) and returns a
 scalar or an `[m]` vector; callers `vmap` over preferences or batches. All of them are
 jittable, vmappable and differentiable, and import nothing but jax and chex.
