@@ -1,12 +1,13 @@
 """The environment registry: names to constructors, each with its objectives and utopia point.
 
-`make(name, **overrides)` builds an environment; every environment is a Brax-style `Env`
-(`reset(key) -> State`, `step(state, action) -> State`, single unbatched copy) whose
-`State.reward` is a vector with one entry per objective, and which exposes
-`num_objectives`, `objective_names`, `default_j_ub`, `default_hv_ref` (the hypervolume
-reference point: per objective the least return an episode can have) and
-`episode_length`. Training code wraps it with `EpisodeWrapper` and vmaps it; nothing
-here imports training code.
+`make(name, **overrides)` builds an environment; every environment is a `base.MOEnv`, a
+Brax-style `Env` (`reset(key) -> State`, `step(state, action) -> State`, single unbatched
+copy) whose `State.reward` is a vector with one entry per objective, and which declares
+`objective_names`, `num_objectives`, `default_j_ub`, `default_hv_ref` (the hypervolume
+reference point: per objective the least return an episode can have), `episode_length`
+and a rendering hook (`base` says what each means). MuJoCo tasks build on
+`mujoco_base.MujocoEnv`. Training code wraps an environment with `EpisodeWrapper` and
+vmaps it; nothing here imports training code.
 """
 
 from __future__ import annotations
