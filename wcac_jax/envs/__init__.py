@@ -42,6 +42,8 @@ _REGISTRY: dict[str, str] = {
     "walker2d": "wcac_jax.envs.walker2d:Walker2d",
     "tabular_momdp": "wcac_jax.envs.tabular:TabularMOMDP",
     "deep_sea_treasure": "wcac_jax.envs.deep_sea_treasure:DeepSeaTreasure",
+    "hopper": "wcac_jax.envs.hopper:Hopper",
+    "hopper-2obj": "wcac_jax.envs.hopper:HopperTwoObjectives",
 }
 
 
