@@ -9,6 +9,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from gym_states import mo_gymnasium_steps, our_steps, own_states
 
 from wcac_jax import envs
 from wcac_jax.envs import base
@@ -19,49 +20,7 @@ N_ENVS, N_STEPS = 16, 20  # 320 steps
 
 @pytest.fixture(scope="module")
 def own_rollout():
-    """Our hopper on MuJoCo's C engine, 16 environments x 20 random-action steps, no
-    resets (a hopper that fell keeps moving, so states past the health limits appear):
-    each step's float64 start state, float32 action and our outputs."""
-    env = envs.make("hopper")
-
-    @jax.jit
-    def rollout(key):
-        start = jax.vmap(env.reset)(jax.random.split(key, N_ENVS))
-
-        def body(state, k):
-            action = jax.random.uniform(k, (N_ENVS, 3), minval=-1.0, maxval=1.0)
-            nxt = jax.vmap(env.step)(state, action)
-            return nxt, (state.pipeline_state.physics, action)
-
-        return jax.lax.scan(body, start, jax.random.split(key, N_STEPS))[1]
-
-    physics, actions = (np.asarray(x) for x in rollout(jax.random.key(0)))
-    engine = env.engine
-    full = physics.reshape(N_STEPS * N_ENVS, -1).view(np.float64)
-    qpos = full[:, engine._qpos_at : engine._qpos_at + engine.nq]
-    qvel = full[:, engine._qvel_at : engine._qvel_at + engine.nv]
-    return qpos, qvel, actions.reshape(-1, 3)
-
-
-def _ours(name, qpos, qvel, actions):
-    """One step of our `name` from each float64 state (set exactly)."""
-    env = envs.make(name)
-    start = jax.vmap(env.reset)(jax.random.split(jax.random.key(1), len(qpos)))
-    start = start.replace(pipeline_state=env.engine.host_data(qpos, qvel))
-    return jax.jit(jax.vmap(env.step))(start, jnp.asarray(actions))
-
-
-def _theirs(gym_id, qpos, qvel, actions):
-    """One step of MO-Gymnasium's `gym_id` from each state: (obs, reward, terminated)."""
-    mo_gym = pytest.importorskip("mo_gymnasium")
-    genv = mo_gym.make(gym_id)
-    genv.reset(seed=0)
-    obs, reward, term = [], [], []
-    for q, v, a in zip(qpos, qvel, actions, strict=True):
-        genv.unwrapped.set_state(q, v)
-        o, r, t, _, _ = genv.step(a.astype(np.float64))
-        obs.append(o), reward.append(r), term.append(t)
-    return np.array(obs), np.array(reward), np.array(term, np.float32)
+    return own_states("hopper", N_ENVS, N_STEPS)
 
 
 @pytest.mark.parametrize(
@@ -74,8 +33,8 @@ def test_conformance_with_mo_gymnasium(own_rollout, name, gym_id):
     rounded height; forward 1.2e-7, control 2.4e-7); 63 of the steps terminate. A
     modelling difference (a wrong weight, a missing healthy reward) is 1e-3 or more."""
     qpos, qvel, actions = own_rollout
-    out = _ours(name, qpos, qvel, actions)
-    ref_obs, ref_reward, ref_term = _theirs(gym_id, qpos, qvel, actions)
+    out = our_steps(name, qpos, qvel, actions)
+    ref_obs, ref_reward, ref_term = mo_gymnasium_steps(gym_id, qpos, qvel, actions)
     assert ref_reward.shape == (N_ENVS * N_STEPS, envs.make(name).num_objectives)
     # falls, and states past the health limits, are covered
     assert 20 <= ref_term.sum() <= len(ref_term) - 20

@@ -44,6 +44,8 @@ _REGISTRY: dict[str, str] = {
     "deep_sea_treasure": "wcac_jax.envs.deep_sea_treasure:DeepSeaTreasure",
     "hopper": "wcac_jax.envs.hopper:Hopper",
     "hopper-2obj": "wcac_jax.envs.hopper:HopperTwoObjectives",
+    "halfcheetah": "wcac_jax.envs.halfcheetah:HalfCheetah",
+    "swimmer": "wcac_jax.envs.swimmer:Swimmer",
 }
 
 

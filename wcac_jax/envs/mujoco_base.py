@@ -13,15 +13,17 @@ The base owns
   costs); the `"mujoco"` engine keeps the model's settings, as Gymnasium does;
 - `frame_skip` physics substeps per step (`dt = frame_skip * timestep`);
 - resets: the model's initial positions plus uniform noise in `[-s, s]`
-  (`reset_noise_scale`), velocities uniform in `[-s, s]`, as Gymnasium's v5 tasks;
+  (`reset_noise_scale`), velocities uniform in `[-s, s]` (or `s` times a standard normal,
+  `velocity_noise = "normal"`, as HalfCheetah), as Gymnasium's v5 tasks;
 - the height convention: when `height_body` is set, `qpos(data)` reports `qpos[1]` (the
   root's slide along z) as that body's world height, whatever the model's own `rootz`
   origin (Brax's walker measures it from 1.25 m, Gymnasium's models from the floor);
 - the rendering hook: the model and a side camera tracking `height_body`.
 
-A task subclass declares `objective_names`, `default_j_ub`, `observation_size`,
-`action_size` (and `frame_skip`, `height_body` if they differ), sets `default_hv_ref`
-in its constructor (it depends on `episode_length`), and implements
+A task subclass declares `objective_names`, `observation_size`, `action_size` (and
+`frame_skip`, `height_body`, `velocity_noise` if they differ), sets `default_j_ub` and
+`default_hv_ref` (as class attributes, or in its constructor when they depend on
+`episode_length`), and implements
 
 - `observation(data) -> [observation_size]`;
 - `outcome(data, dqpos, action) -> (reward [m], done [], metrics)`: the step's reward
@@ -86,6 +88,7 @@ class MujocoEnv(MOEnv):
 
     frame_skip: int = 4
     height_body: str | None = "torso"
+    velocity_noise: str = "uniform"
 
     def __init__(
         self,
@@ -139,7 +142,7 @@ class MujocoEnv(MOEnv):
     def reset_metrics(self, data) -> dict:
         raise NotImplementedError
 
-    # ------------------------------------------------------------------ shared
+    # ------------------------------------------------------------------ every task
 
     def reset(self, rng: jax.Array) -> State:
         key_q, key_qd = jax.random.split(rng)
@@ -148,7 +151,10 @@ class MujocoEnv(MOEnv):
         qpos = jnp.asarray(self.engine.init_qpos) + jax.random.uniform(
             key_q, (nq,), minval=lo, maxval=hi
         )
-        qvel = jax.random.uniform(key_qd, (nv,), minval=lo, maxval=hi)
+        if self.velocity_noise == "normal":
+            qvel = self._noise * jax.random.normal(key_qd, (nv,))
+        else:
+            qvel = jax.random.uniform(key_qd, (nv,), minval=lo, maxval=hi)
         data = self.engine.init(qpos, qvel)
         zero = jnp.zeros((), jnp.float32)
         reward = jnp.zeros(self.num_objectives, jnp.float32)
