@@ -32,6 +32,15 @@ def test_every_environment_declares_what_training_reads(name):
     assert env.observation_size >= 1 and env.action_size >= 1
 
 
+def test_option_defaults_without_building():
+    assert envs.option_defaults("hopper")["engine"] == "mujoco"
+    assert envs.option_defaults("walker2d")["engine"] == "mjx"
+    assert envs.option_defaults("walker2d")["episode_length"] == 500
+    assert envs.option_defaults("concave_bandit") == {}
+    with pytest.raises(ValueError, match="'nope'.*concave_bandit"):
+        envs.option_defaults("nope")
+
+
 def test_check_names_what_disagrees():
     from wcac_jax.envs import base
 

@@ -66,6 +66,21 @@ def _constructor(name: str) -> Callable:
     return getattr(importlib.import_module(module), attr)
 
 
+def option_defaults(name: str) -> dict:
+    """`name`'s options and their default values (e.g. `{"engine": "mujoco", ...}`), without
+    building it.
+
+    Raises:
+      ValueError: for an unknown name (listing the valid ones).
+    """
+    params = inspect.signature(_constructor(name)).parameters
+    return {
+        p.name: p.default
+        for p in params.values()
+        if p.name != "self" and p.default is not inspect.Parameter.empty
+    }
+
+
 def make(name: str, **overrides):
     """Builds the environment `name` with keyword `overrides` of its options.
 
@@ -85,4 +100,4 @@ def make(name: str, **overrides):
     return ctor(**overrides)
 
 
-__all__ = ["EpisodeWrapper", "make", "names", "register"]
+__all__ = ["EpisodeWrapper", "make", "names", "option_defaults", "register"]
