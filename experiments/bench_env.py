@@ -117,7 +117,7 @@ def qpos_drift(a: str, b: str, steps: int = 100, seed: int = 0):
         def run(state, env=env):
             def body(s, a):
                 s = env.step(s, a)
-                return s, env._qpos(s.pipeline_state)
+                return s, env.qpos(s.pipeline_state)
 
             return jax.lax.scan(body, state, actions)[1]
 

@@ -150,7 +150,7 @@ def main(argv=None) -> int:
     # every preference's frames in one call: one renderer (an OpenGL context) for all
     try:
         frames = render.render(
-            physics, qpos[:, times].reshape(-1, qpos.shape[-1]), args.size, args.size
+            env, qpos[:, times].reshape(-1, qpos.shape[-1]), args.size, args.size
         )
     except RuntimeError as err:
         common.fail(str(err), status=1)

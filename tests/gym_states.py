@@ -1,5 +1,7 @@
-"""States of MO-Gymnasium's mo-walker2d-v5 to compare our Walker2d against (shared by the
-MJX and the MuJoCo-engine conformance tests)."""
+"""States to compare our MuJoCo tasks with MO-Gymnasium's from, and one step of each side
+from them: mo-walker2d-v5's own states (shared by the MJX and the MuJoCo-engine Walker2d
+conformance tests), and our own environments' states (`own_states`, `our_steps`,
+`mo_gymnasium_steps`: the hopper, halfcheetah and swimmer tests)."""
 
 import numpy as np
 import pytest
@@ -28,3 +30,59 @@ def gymnasium_states(n_states, seed=0, float32_actions=False):
             genv.reset(seed=int(rng.integers(1 << 30)))
             past_fall = 0
     return genv, states, actions
+
+
+def own_states(name, n_envs, n_steps, seed=0):
+    """Float64 states `qpos [n, nq]`, `qvel [n, nv]` and float32 actions `[n, nu]`
+    (`n = n_envs * n_steps`) of our environment `name` on MuJoCo's C engine: random-action
+    rollouts without resets (an agent that fell keeps moving, so states past the health
+    limits appear), each step's exact start state and action."""
+    import jax
+
+    from wcac_jax import envs
+
+    env = envs.make(name, engine="mujoco")
+    nu = env.action_size
+
+    @jax.jit
+    def rollout(key):
+        start = jax.vmap(env.reset)(jax.random.split(key, n_envs))
+
+        def body(state, k):
+            action = jax.random.uniform(k, (n_envs, nu), minval=-1.0, maxval=1.0)
+            return jax.vmap(env.step)(state, action), (state.pipeline_state.physics, action)
+
+        return jax.lax.scan(body, start, jax.random.split(key, n_steps))[1]
+
+    physics, actions = (np.asarray(x) for x in rollout(jax.random.key(seed)))
+    engine = env.engine
+    full = physics.reshape(n_envs * n_steps, -1).view(np.float64)
+    qpos = full[:, engine._qpos_at : engine._qpos_at + engine.nq]
+    qvel = full[:, engine._qvel_at : engine._qvel_at + engine.nv]
+    return qpos, qvel, actions.reshape(-1, nu)
+
+
+def our_steps(name, qpos, qvel, actions):
+    """One step of our `name` (MuJoCo's C engine) from each float64 state, set exactly."""
+    import jax
+    import jax.numpy as jnp
+
+    from wcac_jax import envs
+
+    env = envs.make(name, engine="mujoco")
+    start = jax.vmap(env.reset)(jax.random.split(jax.random.key(1), len(qpos)))
+    start = start.replace(pipeline_state=env.engine.host_data(qpos, qvel))
+    return jax.jit(jax.vmap(env.step))(start, jnp.asarray(actions))
+
+
+def mo_gymnasium_steps(gym_id, qpos, qvel, actions):
+    """One step of MO-Gymnasium's `gym_id` from each state: `(obs, reward, terminated)`."""
+    mo_gym = pytest.importorskip("mo_gymnasium")
+    genv = mo_gym.make(gym_id)
+    genv.reset(seed=0)
+    obs, reward, term = [], [], []
+    for q, v, a in zip(qpos, qvel, actions, strict=True):
+        genv.unwrapped.set_state(q, v)
+        o, r, t, _, _ = genv.step(np.asarray(a, np.float64))
+        obs.append(o), reward.append(r), term.append(t)
+    return np.array(obs), np.array(reward), np.array(term, np.float32)

@@ -21,6 +21,38 @@ def test_registry_errors_name_the_valid_choices():
     assert "concave_bandit" in envs.names()
 
 
+@pytest.mark.parametrize("name", envs.names())
+def test_every_environment_declares_what_training_reads(name):
+    """Each registered environment is a `base.MOEnv` whose declarations agree."""
+    from wcac_jax.envs import base
+
+    env = envs.make(name, **({"engine": "mujoco"} if name == "walker2d" else {}))
+    assert isinstance(env, base.MOEnv)
+    base.check(env)
+    assert env.observation_size >= 1 and env.action_size >= 1
+
+
+def test_option_defaults_without_building():
+    assert envs.option_defaults("hopper")["engine"] == "mujoco"
+    assert envs.option_defaults("walker2d")["engine"] == "mjx"
+    assert envs.option_defaults("walker2d")["episode_length"] == 500
+    assert envs.option_defaults("concave_bandit") == {}
+    with pytest.raises(ValueError, match="'nope'.*concave_bandit"):
+        envs.option_defaults("nope")
+
+
+def test_check_names_what_disagrees():
+    from wcac_jax.envs import base
+
+    env = envs.make("concave_bandit")
+    env.default_j_ub = (1.1,)
+    with pytest.raises(ValueError, match="default_j_ub has 1 entries for 2 objectives"):
+        base.check(env)
+    env.default_j_ub, env.default_hv_ref = (1.1, 1.1), (0.0, 2.0)
+    with pytest.raises(ValueError, match=r"default_hv_ref \(0.0, 2.0\) is not below"):
+        base.check(env)
+
+
 def test_concave_bandit_rewards_by_hand():
     env = envs.make("concave_bandit")
     assert env.num_objectives == 2 and len(env.objective_names) == 2

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from brax.envs.base import State
 
-from wcac_jax import render
+from wcac_jax import envs, render
 
 
 class _Data(NamedTuple):
@@ -63,9 +63,26 @@ def test_rollout_holds_the_fallen_pose_and_counts_the_steps():
     np.testing.assert_allclose(qpos[:, 0], [0, 1, 2, 3], rtol=0)
 
 
+def _walker():
+    return envs.make("walker2d", physics="gymnasium-v5", engine="mujoco")
+
+
 def test_render_checks_the_positions_shape():
     with pytest.raises(ValueError, match=r"qpos must be \[T, 9\], got shape \(4, 7\)"):
-        render.render("gymnasium-v5", np.zeros((4, 7)))
+        render.render(_walker(), np.zeros((4, 7)))
+
+
+def test_render_asks_the_environment_for_its_scene():
+    """The model and camera come from the environment's hook: the hopper's model has 6
+    positions, the walker's 9; an environment without a hook has nothing to draw."""
+    scene = _walker().render_scene()
+    assert scene.model.nq == 9 and scene.track_body == "torso"
+    with pytest.raises(ValueError, match=r"qpos must be \[T, 6\], got shape \(2, 9\)"):
+        render.render(envs.make("hopper"), np.zeros((2, 9)))
+    with pytest.raises(ValueError, match="ConcaveBandit has nothing to render"):
+        render.render(envs.make("concave_bandit"), np.zeros((2, 1)))
+    with pytest.raises(ValueError, match="_Line has nothing to render"):
+        render.render(_Line(), np.zeros((2, 2)))
 
 
 def test_render_says_when_there_is_no_opengl_context(monkeypatch):
@@ -79,4 +96,4 @@ def test_render_says_when_there_is_no_opengl_context(monkeypatch):
     monkeypatch.setattr(mujoco, "Renderer", no_context)
     monkeypatch.setenv("MUJOCO_GL", "disable")
     with pytest.raises(RuntimeError, match=r"no OpenGL context \(MUJOCO_GL='disable'.*GLContext"):
-        render.render("gymnasium-v5", np.zeros((2, 9)))
+        render.render(_walker(), np.zeros((2, 9)))

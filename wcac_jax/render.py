@@ -1,14 +1,15 @@
-"""Pictures of trained Walker2d policies: each preference's deterministic policy rolled out
-from a start state, and MuJoCo's renderer drawing the model at the positions it reached.
+"""Pictures of trained policies: each preference's deterministic policy rolled out from a
+start state, and MuJoCo's renderer drawing the environment at the positions it reached.
 
 Two steps, so that the rollout stays a pure function of the trained state:
 
 - `make_rollout(trainer, env, steps)` -> `rollout(state, key) -> (qpos [steps + 1, nq],
   length [], fell [])`, one preference's episode (the deterministic policy `trainer.mean_action`,
-  the raw environment without auto-reset); positions after the step the walker falls are
+  the raw environment without auto-reset); positions after the step the agent falls are
   held at the fallen pose. Vmap it over the sweep's preference axis.
-- `render(physics, qpos [T, nq])` -> RGB frames `uint8 [T, height, width, 3]` on the host,
-  with a camera that follows the torso from the side.
+- `render(env, qpos [T, nq])` -> RGB frames `uint8 [T, height, width, 3]` on the host,
+  drawn as the environment's rendering hook says (`env.render_scene()`: its MuJoCo model
+  and a camera following it); an environment without one has no pictures.
 
 MuJoCo picks its OpenGL platform when it is first imported (`MUJOCO_GL`): on a machine
 without a display, set `MUJOCO_GL=egl` before anything imports `mujoco` (as
@@ -34,7 +35,7 @@ def make_rollout(trainer, env, steps: int) -> Callable:
     `state`: ONE preference's training state (`trainer.init`'s tree, no preference
     axis); `key`: the start state's key (`env.reset(key)`). `qpos[0]` is the start,
     `qpos[t]` the positions after step `t` (the model's own coordinates, as its MuJoCo
-    model reads them); `length` counts the steps up to and including the one the walker
+    model reads them); `length` counts the steps up to and including the one the agent
     fell on (`steps` if it did not), `fell` whether it did, and `qpos[length:]` all equal
     `qpos[length]`.
     """
@@ -58,28 +59,32 @@ def make_rollout(trainer, env, steps: int) -> Callable:
     return rollout
 
 
-def render(physics: str, qpos: np.ndarray, width: int = 240, height: int = 240) -> np.ndarray:
-    """RGB frames `uint8 [T, height, width, 3]` of the Walker2d model `physics` at each row
-    of `qpos [T, nq]`, seen from the side by a camera that tracks the torso.
+def render(env, qpos: np.ndarray, width: int = 240, height: int = 240) -> np.ndarray:
+    """RGB frames `uint8 [T, height, width, 3]` of `env` at each row of `qpos [T, nq]`
+    (its model's own coordinates, as `make_rollout` returns them), by the camera of
+    `env.render_scene()`.
 
     Raises:
-      ValueError: `qpos` is not `[T, nq]`.
+      ValueError: `env` has no rendering hook, or `qpos` is not `[T, nq]`.
       RuntimeError: no OpenGL context (MuJoCo's platform is `MUJOCO_GL`, read when
         `mujoco` is first imported).
     """
     import mujoco
 
-    from wcac_jax.envs.walker2d import load_mj_model
-
-    model = load_mj_model(physics)
+    hook = getattr(env, "render_scene", None)
+    scene = hook() if hook is not None else None
+    if scene is None:
+        raise ValueError(f"environment {type(env).__name__} has nothing to render")
+    model = scene.model
     qpos = np.asarray(qpos, np.float64)
     if qpos.ndim != 2 or qpos.shape[1] != model.nq:
         raise ValueError(f"qpos must be [T, {model.nq}], got shape {qpos.shape}")
     data = mujoco.MjData(model)
     camera = mujoco.MjvCamera()
     camera.type = mujoco.mjtCamera.mjCAMERA_TRACKING
-    camera.trackbodyid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "torso")
-    camera.distance, camera.elevation, camera.azimuth = 3.0, -10.0, 90.0  # side view
+    camera.trackbodyid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, scene.track_body)
+    camera.distance, camera.elevation = scene.distance, scene.elevation
+    camera.azimuth = scene.azimuth
     frames = np.empty((len(qpos), height, width, 3), np.uint8)
     try:
         renderer = mujoco.Renderer(model, height, width)

@@ -1,12 +1,13 @@
 """The environment registry: names to constructors, each with its objectives and utopia point.
 
-`make(name, **overrides)` builds an environment; every environment is a Brax-style `Env`
-(`reset(key) -> State`, `step(state, action) -> State`, single unbatched copy) whose
-`State.reward` is a vector with one entry per objective, and which exposes
-`num_objectives`, `objective_names`, `default_j_ub`, `default_hv_ref` (the hypervolume
-reference point: per objective the least return an episode can have) and
-`episode_length`. Training code wraps it with `EpisodeWrapper` and vmaps it; nothing
-here imports training code.
+`make(name, **overrides)` builds an environment; every environment is a `base.MOEnv`, a
+Brax-style `Env` (`reset(key) -> State`, `step(state, action) -> State`, single unbatched
+copy) whose `State.reward` is a vector with one entry per objective, and which declares
+`objective_names`, `num_objectives`, `default_j_ub`, `default_hv_ref` (the hypervolume
+reference point: per objective the least return an episode can have), `episode_length`
+and a rendering hook (`base` says what each means). MuJoCo tasks build on
+`mujoco_base.MujocoEnv`. Training code wraps an environment with `EpisodeWrapper` and
+vmaps it; nothing here imports training code.
 """
 
 from __future__ import annotations
@@ -41,6 +42,10 @@ _REGISTRY: dict[str, str] = {
     "walker2d": "wcac_jax.envs.walker2d:Walker2d",
     "tabular_momdp": "wcac_jax.envs.tabular:TabularMOMDP",
     "deep_sea_treasure": "wcac_jax.envs.deep_sea_treasure:DeepSeaTreasure",
+    "hopper": "wcac_jax.envs.hopper:Hopper",
+    "hopper-2obj": "wcac_jax.envs.hopper:HopperTwoObjectives",
+    "halfcheetah": "wcac_jax.envs.halfcheetah:HalfCheetah",
+    "swimmer": "wcac_jax.envs.swimmer:Swimmer",
 }
 
 
@@ -59,6 +64,21 @@ def _constructor(name: str) -> Callable:
         raise ValueError(f"unknown environment {name!r}; valid: {', '.join(names())}")
     module, attr = _REGISTRY[name].split(":")
     return getattr(importlib.import_module(module), attr)
+
+
+def option_defaults(name: str) -> dict:
+    """`name`'s options and their default values (e.g. `{"engine": "mujoco", ...}`), without
+    building it.
+
+    Raises:
+      ValueError: for an unknown name (listing the valid ones).
+    """
+    params = inspect.signature(_constructor(name)).parameters
+    return {
+        p.name: p.default
+        for p in params.values()
+        if p.name != "self" and p.default is not inspect.Parameter.empty
+    }
 
 
 def make(name: str, **overrides):
@@ -80,4 +100,4 @@ def make(name: str, **overrides):
     return ctor(**overrides)
 
 
-__all__ = ["EpisodeWrapper", "make", "names", "register"]
+__all__ = ["EpisodeWrapper", "make", "names", "option_defaults", "register"]

@@ -15,7 +15,9 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 import numpy as np
-from brax.envs.base import Env, State
+from brax.envs.base import State
+
+from wcac_jax.envs.base import MOEnv
 
 OBJECTIVE_NAMES = ("one_minus_sin", "one_minus_cos")
 DEFAULT_J_UB = (1.1, 1.1)
@@ -69,10 +71,9 @@ def wc_optimum(pref, j_ub=DEFAULT_J_UB):
     return 0.5 * (lo + hi)
 
 
-class ConcaveBandit(Env):
+class ConcaveBandit(MOEnv):
     """The concave bandit as a Brax-style `Env` (`reset`, `step`, vector `State.reward`)."""
 
-    num_objectives = 2
     objective_names = OBJECTIVE_NAMES
     default_j_ub = DEFAULT_J_UB
     # hypervolume reference: the least return of each objective (both lie in [0, 1])

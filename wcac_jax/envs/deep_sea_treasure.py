@@ -27,7 +27,9 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 import numpy as np
-from brax.envs.base import Env, State
+from brax.envs.base import State
+
+from wcac_jax.envs.base import MOEnv
 
 SIZE = 11
 TREASURE_ROWS = (1, 2, 3, 4, 4, 4, 7, 7, 9, 10)
@@ -58,10 +60,9 @@ def _next_cell_table() -> np.ndarray:
     return table
 
 
-class DeepSeaTreasure(Env):
+class DeepSeaTreasure(MOEnv):
     """Deep Sea Treasure (concave map) as a Brax-style `Env` with discrete actions."""
 
-    num_objectives = 2
     objective_names = ("treasure", "time")
     num_actions = 4
     default_j_ub = (125.0, 0.0)  # treasure <= 124; every episode takes at least one step

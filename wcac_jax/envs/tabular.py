@@ -19,12 +19,13 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import optax
-from brax.envs.base import Env, State
+from brax.envs.base import State
 
 from wcac_jax import scalarize
+from wcac_jax.envs.base import MOEnv
 
 
-class TabularMOMDP(Env):
+class TabularMOMDP(MOEnv):
     """The tabular MOMDP as a Brax-style `Env` with discrete actions (`num_actions`).
 
     Args:
@@ -56,11 +57,8 @@ class TabularMOMDP(Env):
         if not 0.0 <= gamma < 1.0:
             raise ValueError(f"gamma must be in [0, 1), got {gamma!r}")
         rng = np.random.default_rng(seed)
-        self.num_states, self.num_actions, self.num_objectives = (
-            num_states,
-            num_actions,
-            num_objectives,
-        )
+        # `num_objectives` is the number of `objective_names` (set below)
+        self.num_states, self.num_actions = num_states, num_actions
         self.gamma, self.episode_length = float(gamma), int(episode_length)
         self.rewards = jnp.asarray(
             rng.uniform(0, 1, (num_states, num_actions, num_objectives)), jnp.float32

@@ -1,5 +1,6 @@
 """Multi-objective Walker2d with the semantics of MO-Gymnasium's `mo-walker2d-v5`: the
-model, the objectives and the health check; a physics engine (`engines`) steps it.
+models, the objectives and the health check (`mujoco_base.MujocoEnv` does the rest: model
+loading, the engines, resets, frame skip, the height convention, rendering).
 
 A Brax-style `Env` (`reset`, `step`, one unbatched copy). One step applies the action (6 torques in
 `[-1, 1]`) for 4 physics substeps of 0.002 s (`dt = 0.008`), and returns
@@ -58,10 +59,8 @@ import os
 import jax
 import jax.numpy as jnp
 import mujoco
-from brax.envs.base import Env, State
 
-from wcac_jax.envs import engines
-from wcac_jax.envs.engines import ENGINES
+from wcac_jax.envs.mujoco_base import MujocoEnv, asset, load_model
 
 PHYSICS = ("brax", "gymnasium-v5")
 OBJECTIVE_NAMES = ("forward_velocity", "control")
@@ -75,7 +74,7 @@ def model_path(physics: str) -> str:
 
         return os.path.join(os.path.dirname(brax.__file__), "envs", "assets", "walker2d.xml")
     if physics == "gymnasium-v5":
-        return os.path.join(os.path.dirname(__file__), "assets", "walker2d_v5.xml")
+        return asset("walker2d_v5.xml")
     raise ValueError(f"unknown physics {physics!r}; valid: {', '.join(PHYSICS)}")
 
 
@@ -83,15 +82,10 @@ def load_mj_model(
     physics: str, solver_iterations: int | None = None, ls_iterations: int | None = None
 ) -> mujoco.MjModel:
     """The MuJoCo model of `physics`, with optional solver overrides."""
-    model = mujoco.MjModel.from_xml_path(model_path(physics))
-    if solver_iterations is not None:
-        model.opt.iterations = solver_iterations
-    if ls_iterations is not None:
-        model.opt.ls_iterations = ls_iterations
-    return model
+    return load_model(model_path(physics), solver_iterations, ls_iterations)
 
 
-class Walker2d(Env):
+class Walker2d(MujocoEnv):
     """Multi-objective Walker2d; see the module docstring.
 
     Args:
@@ -105,9 +99,10 @@ class Walker2d(Env):
         MJX, otherwise the model's own).
     """
 
-    num_objectives = 2
     objective_names = OBJECTIVE_NAMES
     default_j_ub = DEFAULT_J_UB
+    frame_skip = 4
+    height_body = "torso"
 
     def __init__(
         self,
@@ -120,72 +115,32 @@ class Walker2d(Env):
     ):
         if physics not in PHYSICS:
             raise ValueError(f"unknown physics {physics!r}; valid: {', '.join(PHYSICS)}")
-        if engine not in ENGINES:
-            raise ValueError(f"unknown engine {engine!r}; valid: {', '.join(ENGINES)}")
-        if isinstance(episode_length, bool) or not isinstance(episode_length, int):
-            raise ValueError(f"episode_length must be a positive integer, got {episode_length!r}")
-        if episode_length < 1:
-            raise ValueError(f"episode_length must be a positive integer, got {episode_length!r}")
-        for name, value in (
-            ("solver_iterations", solver_iterations),
-            ("ls_iterations", ls_iterations),
-        ):
-            if value is not None and (not isinstance(value, int) or value < 1):
-                raise ValueError(f"{name} must be a positive integer or None, got {value!r}")
-        if not reset_noise_scale >= 0:
-            raise ValueError(f"reset_noise_scale must be >= 0, got {reset_noise_scale!r}")
-        if physics == "gymnasium-v5" and engine == "mjx":
-            solver_iterations = 4 if solver_iterations is None else solver_iterations
-            ls_iterations = 4 if ls_iterations is None else ls_iterations
+        super().__init__(
+            model_path(physics),
+            engine,
+            episode_length,
+            reset_noise_scale,
+            solver_iterations,
+            ls_iterations,
+            cap_mjx_solver=physics == "gymnasium-v5",
+        )
         self.physics = physics
-        self.episode_length = episode_length
         # hypervolume reference, per objective a floor per step times the time limit:
         # control -6 (its least reward: sum a^2 <= 6, healthy reward >= 0); forward -1
         # (x_velocity + healthy has no physical floor: -1 is walking backwards at 2 m/s
         # for the whole episode, far below any policy's return so far)
         self.default_hv_ref = (-1.0 * episode_length, -6.0 * episode_length)
-        self._noise = float(reset_noise_scale)
-        mj_model = load_mj_model(physics, solver_iterations, ls_iterations)
-        data = mujoco.MjData(mj_model)
-        mujoco.mj_forward(mj_model, data)
-        torso = mujoco.mj_name2id(mj_model, mujoco.mjtObj.mjOBJ_BODY, "torso")
-        # world torso height minus the rootz coordinate: 1.25 for Brax's model, 0 for v5
-        self._z_offset = float(data.xpos[torso, 2] - data.qpos[1])
-        self.engine = engines.make(engine, mj_model, n_frames=4)
-        self.dt = self.engine.dt
 
-    def reset(self, rng: jax.Array) -> State:
-        key_q, key_qd = jax.random.split(rng)
-        lo, hi = -self._noise, self._noise
-        nq, nv = self.engine.nq, self.engine.nv
-        qpos = jnp.asarray(self.engine.init_qpos) + jax.random.uniform(
-            key_q, (nq,), minval=lo, maxval=hi
-        )
-        qvel = jax.random.uniform(key_qd, (nv,), minval=lo, maxval=hi)
-        data = self.engine.init(qpos, qvel)
-        zero = jnp.zeros((), jnp.float32)
-        metrics = self._metrics(zero, zero, zero, data.qpos[0])
-        return State(data, self._obs(data), jnp.zeros(2, jnp.float32), zero, metrics)
-
-    def step(self, state: State, action: jax.Array) -> State:
-        data, dqpos = self.engine.step(state.pipeline_state, action)
+    def outcome(self, data, dqpos: jax.Array, action: jax.Array):
         x_velocity = dqpos[0] / self.dt
-        healthy = self.is_healthy(self._qpos(data)).astype(jnp.float32)
+        healthy = self.is_healthy(self.qpos(data)).astype(jnp.float32)
         ctrl = -jnp.sum(jnp.square(action))
         reward = jnp.stack([x_velocity, ctrl]) + healthy
-        metrics = self._metrics(x_velocity, ctrl, healthy, data.qpos[0])
-        return state.replace(
-            pipeline_state=data,
-            obs=self._obs(data),
-            reward=reward,
-            done=1.0 - healthy,
-            metrics=metrics,
-        )
+        return reward, 1.0 - healthy, self._metrics(x_velocity, ctrl, healthy, data.qpos[0])
 
-    def pipeline_init(self, qpos: jax.Array, qvel: jax.Array):
-        """The engine's physics state at `qpos [9]`, `qvel [9]` (in the model's own
-        `rootz` convention), e.g. to step from a given state."""
-        return self.engine.init(qpos, qvel)
+    def reset_metrics(self, data) -> dict:
+        zero = jnp.zeros((), jnp.float32)
+        return self._metrics(zero, zero, zero, data.qpos[0])
 
     @staticmethod
     def _metrics(x_velocity, ctrl, healthy, x_position) -> dict:
@@ -207,13 +162,9 @@ class Walker2d(Env):
         z, angle = qpos[1], qpos[2]
         return (z > 0.8) & (z < 2.0) & (angle > -1.0) & (angle < 1.0)
 
-    def _qpos(self, data) -> jax.Array:
-        """`qpos` in v5's convention: `rootz` as the torso's world height."""
-        return data.qpos.at[1].add(self._z_offset)
-
-    def _obs(self, data) -> jax.Array:
+    def observation(self, data) -> jax.Array:
         qvel = jnp.clip(data.qvel, -10.0, 10.0)
-        return jnp.concatenate([self._qpos(data)[1:], qvel])
+        return jnp.concatenate([self.qpos(data)[1:], qvel])
 
     @property
     def observation_size(self) -> int:
@@ -222,7 +173,3 @@ class Walker2d(Env):
     @property
     def action_size(self) -> int:
         return 6
-
-    @property
-    def backend(self) -> str:
-        return self.engine.name
