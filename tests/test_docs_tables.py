@@ -24,11 +24,6 @@ DOCS = tables.documents(ROOT)
 LINK = re.compile(r"!?\[(?:[^\]\[]|\[[^\]]*\])*\]\(([^)\s]+)\)")
 
 
-# Written alongside this documentation and linked from it before it lands; once it exists
-# its links are checked like every other (remove it from here then).
-LANDING_SEPARATELY = {"docs/extending.md"}
-
-
 def _text(path: str) -> str:
     with open(os.path.join(ROOT, path)) as f:
         return f.read()
@@ -106,8 +101,7 @@ def test_every_relative_link_resolves(doc):
         path, _, anchor = target.partition("#")
         full = os.path.normpath(os.path.join(ROOT, os.path.dirname(doc), path)) if path else None
         if full is not None and not os.path.exists(full):
-            if os.path.relpath(full, ROOT) not in LANDING_SEPARATELY:
-                bad.append(f"{target}: no such file")
+            bad.append(f"{target}: no such file")
             continue
         if anchor:
             md = os.path.relpath(full, ROOT) if full else doc
