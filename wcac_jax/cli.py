@@ -1,4 +1,5 @@
-"""The command line, `python -m wcac_jax.sweep`: flags to a `SweepConfig`, then `run_sweep`.
+"""The command line, `python -m wcac_jax.sweep` or `wcac-sweep`: flags to a `SweepConfig`,
+then `run_sweep`.
 
 Exit status: 0 done, 2 bad input (one line naming it; nothing written), 3 training
 diverged (the last good checkpoint is kept).
@@ -414,9 +415,18 @@ def use_every_core(engine: str | None = None) -> str:
     )
 
 
-def main(argv=None, *, every_core: bool = False) -> int:
-    """The command line (`every_core=True` from `python -m wcac_jax.sweep`: one host device
-    per core unless `XLA_FLAGS` is set, said on the first line; see `use_every_core`)."""
+def main(argv=None, *, every_core: bool | None = None) -> int:
+    """The command line; returns the exit status (the console script `wcac-sweep` and
+    `python -m wcac_jax.sweep` exit with it).
+
+    Args:
+      argv: the arguments (`None`: the process's own, `sys.argv[1:]`).
+      every_core: one host device per core unless `XLA_FLAGS` is set, said on the first
+        line (`use_every_core`); `None`: when `argv` is `None`, i.e. when this process
+        is the command (a call from Python with its own arguments keeps JAX's devices).
+    """
+    if every_core is None:
+        every_core = argv is None
     args = build_parser().parse_args(argv)
     try:
         cluster = distributed.from_environment(
