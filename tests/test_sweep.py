@@ -331,6 +331,23 @@ def test_resume_into_a_read_only_directory_exits_2(tiny_run, capsys, monkeypatch
     assert _tree(tiny_run) == before
 
 
+def test_resume_of_a_finished_sweep_says_so_and_changes_nothing(tiny_run, capsys):
+    before = _tree(tiny_run)
+    content = {name: open(os.path.join(tiny_run, name), "rb").read() for name in before}
+    rc = cli.main([*TINY_BANDIT, "--n-prefs", "4", "--chunks", "3", "--out", tiny_run, "--resume"])
+    out, err = capsys.readouterr()
+    assert rc == 0, err
+    assert (out + err).splitlines() == [
+        f"{tiny_run} is finished (its front.json is written): --resume has nothing to do"
+    ]
+    assert _tree(tiny_run) == before
+    assert all(open(os.path.join(tiny_run, n), "rb").read() == b for n, b in content.items())
+    # the same sweep only: another configuration is still an error
+    rc = cli.main([*TINY, "--n-prefs", "4", "--seed", "1", "--out", tiny_run, "--resume"])
+    assert rc == 2 and "seed" in capsys.readouterr().err
+    assert _tree(tiny_run) == before
+
+
 @pytest.mark.parametrize("text", ["{not json", "[1, 2]"])
 def test_resume_with_a_corrupt_config_exits_2(tmp_path, capsys, text):
     out = tmp_path / "run"

@@ -460,6 +460,10 @@ def main(argv=None, *, every_core: bool | None = None) -> int:
     except TrainingDiverged as err:
         print(f"error: {err}", file=sys.stderr)
         return 3
+    if front.get("finished"):  # `--resume` of a finished sweep: nothing done, nothing written
+        if not args.quiet:
+            print(f"{out} is finished (its front.json is written): --resume has nothing to do")
+        return 0
     if not distributed.is_writer():
         if not args.quiet:
             print(f"[process {jax.process_index()}] done; process 0 wrote {out}", file=sys.stderr)

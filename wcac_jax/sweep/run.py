@@ -10,6 +10,7 @@ every chunk, the progress report), choose and evaluate the reported policies
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import sys
@@ -70,7 +71,9 @@ def run_sweep(
       stop_after_chunks: stop (as if interrupted) after this many chunks of this call.
 
     Returns:
-      The `front.json` content as a dict (see README, "Outputs").
+      The `front.json` content as a dict (see README, "Outputs"). Resuming a sweep that
+      has finished (its `front.json` is written) changes nothing: its `front.json` content,
+      with `"finished": True` (on every process but 0, that mark alone).
 
     Raises:
       SweepError: bad input (nothing written).
@@ -79,6 +82,9 @@ def run_sweep(
     plan = _prepare(config, chunks)
     if out is not None:
         _on_writer(lambda: check_output_dir(out, plan.config, resume))
+        finished = _finished(out) if resume else None
+        if finished is not None:
+            return finished
     layout = _lay_out(plan)
     report = progress if distributed.is_writer() else False
     if jax.process_count() > 1 and progress is not False:
@@ -388,6 +394,31 @@ def _finish(plan: Plan, out, run: _Run, evaluation, chosen, timing) -> dict:
     if out is not None and distributed.is_writer():
         write_outputs(out, front, metrics, plan.prefs)
     return front
+
+
+def _finished(out: str) -> dict | None:
+    """The saved front of the sweep in `out` if it has finished (`front.json` is written
+    last), marked `"finished": True`, on every process (process 0 reads it; the others
+    get the mark alone); else `None`."""
+    saved = {}
+
+    def read():
+        path = os.path.join(out, "front.json")
+        if not os.path.isfile(path):
+            return
+        try:
+            with open(path) as f:
+                front = json.load(f)
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
+            raise SweepError(f"--resume: {path!r} is not readable JSON ({err})") from None
+        if not isinstance(front, dict):
+            raise SweepError(f"--resume: {path!r} holds no front (a {type(front).__name__})")
+        saved.update(front)
+
+    _on_writer(read)
+    if not distributed.all_ok(bool(saved)):
+        return None
+    return {**saved, "finished": True}
 
 
 def _on_writer(check) -> None:
