@@ -1,8 +1,10 @@
 """`python -m wcac_jax.sweep` end to end on tiny bandit settings: outputs, chunking,
 SIGKILL + resume, two devices, bad input, NaN."""
 
+import io
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -317,7 +319,7 @@ def test_resume_into_a_read_only_directory_exits_2(tiny_run, capsys, monkeypatch
     # running as root, chmod cannot make a directory unwritable: os.access reports it
     real_access = os.access
     monkeypatch.setattr(
-        sweep.os,
+        os,
         "access",
         lambda path, mode: False if os.path.abspath(path) == tiny_run else real_access(path, mode),
     )
@@ -326,6 +328,23 @@ def test_resume_into_a_read_only_directory_exits_2(tiny_run, capsys, monkeypatch
     err = capsys.readouterr().err
     assert rc == 2 and len(err.strip().splitlines()) == 1, err
     assert f"{tiny_run!r} is not writable" in err
+    assert _tree(tiny_run) == before
+
+
+def test_resume_of_a_finished_sweep_says_so_and_changes_nothing(tiny_run, capsys):
+    before = _tree(tiny_run)
+    content = {name: open(os.path.join(tiny_run, name), "rb").read() for name in before}
+    rc = cli.main([*TINY_BANDIT, "--n-prefs", "4", "--chunks", "3", "--out", tiny_run, "--resume"])
+    out, err = capsys.readouterr()
+    assert rc == 0, err
+    assert (out + err).splitlines() == [
+        f"{tiny_run} is finished (its front.json is written): --resume has nothing to do"
+    ]
+    assert _tree(tiny_run) == before
+    assert all(open(os.path.join(tiny_run, n), "rb").read() == b for n, b in content.items())
+    # the same sweep only: another configuration is still an error
+    rc = cli.main([*TINY, "--n-prefs", "4", "--seed", "1", "--out", tiny_run, "--resume"])
+    assert rc == 2 and "seed" in capsys.readouterr().err
     assert _tree(tiny_run) == before
 
 
@@ -408,3 +427,96 @@ def test_chunk_padding_runs_no_iterations():
     # 2 preferences x 5 real iterations; the padded 6th never ran (a per-preference
     # predicate gave 12 calls, iteration 5 included)
     assert sorted(calls) == sorted(list(range(5)) * 2), calls
+
+
+PLAIN_LINE = re.compile(r"\[sweep\] ([\d,]+)/([\d,]+) env steps, [\d,]+ env-steps/s, ETA [\d,]+ s")
+
+
+def test_a_log_gets_one_progress_line_per_chunk(tmp_path, capsys):
+    """With stderr a file (not a terminal), the sweep reports in plain lines: that it
+    compiles, then after each checkpointed chunk the env steps done of all, the chunk's
+    env-steps/s and the time left."""
+    out = tmp_path / "run"
+    argv = [*TINY_BANDIT, "--n-prefs", "4", "--chunks", "3", "--out", str(out)]
+    assert cli.main(argv) == 0
+    err = capsys.readouterr().err.splitlines()
+    assert err[0] == "[sweep] compiling the training program for 4 preferences"
+    done = [PLAIN_LINE.fullmatch(text) for text in err[1:]]
+    assert all(done) and len(done) == 3, err
+    # 25 iterations of 48 env steps per preference, 4 preferences, in chunks of
+    # ceil(25 / 3) = 9 iterations
+    assert [m.group(1) for m in done] == ["1,728", "3,456", "4,800"]
+    assert {m.group(2) for m in done} == {"4,800"}
+    assert (out / "front.json").exists()
+
+
+def test_a_terminal_bar_cuts_chunks_into_calls_and_changes_no_number(
+    tiny_run, tmp_path, monkeypatch
+):
+    """On a terminal the sweep calls its program for a few seconds of training at a time
+    (`progress.Pace`), so that the bar moves within a chunk; here one iteration per call.
+    Every number is the same as the run with one call per chunk."""
+    from wcac_jax.sweep import progress
+
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+
+    calls = []
+    record = progress.Pace.record
+    monkeypatch.setattr(progress, "UPDATE_SECONDS", 0.0)
+    monkeypatch.setattr(
+        progress.Pace, "record", lambda self, n, s: calls.append(n) or record(self, n, s)
+    )
+    monkeypatch.setattr(sys, "stderr", Terminal())
+    config = cli.config_from_args(cli.build_parser().parse_args([*TINY, "--n-prefs", "4"]))
+    front = sweep.run_sweep(config, str(tmp_path / "paced"), chunks=3, progress=True)
+    bar = sys.stderr.getvalue()
+    monkeypatch.undo()
+    assert calls == [1] * config.num_iterations
+    assert "env steps [" in bar and "env-steps/s]" in bar  # the bar, no plain line
+    assert not any(PLAIN_LINE.search(line) for line in bar.replace("\r", "\n").splitlines())
+    front3, curves3 = _load(tiny_run)
+    _, curves = _load(str(tmp_path / "paced"))
+    for k in curves3:
+        np.testing.assert_array_equal(curves[k], curves3[k], err_msg=k)
+    assert [r["return"] for r in front["prefs"]] == [r["return"] for r in front3["prefs"]]
+
+
+def test_console_script_is_the_command_line(tmp_path):
+    """`wcac-sweep` (pyproject's `[project.scripts]`) resolves to `cli.main`, which a
+    console script calls with no argument: it reads the process's own arguments, splits
+    the CPU as `python -m wcac_jax.sweep` does (its first line), and its return value is
+    the exit status."""
+    import tomllib
+    from importlib.metadata import EntryPoint
+
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    with open(os.path.join(root, "pyproject.toml"), "rb") as f:
+        value = tomllib.load(f)["project"]["scripts"]["wcac-sweep"]
+    assert EntryPoint("wcac-sweep", value, "console_scripts").load() is cli.main
+    script = (
+        "import sys; from importlib.metadata import EntryPoint; "
+        f"sys.exit(EntryPoint('wcac-sweep', {value!r}, 'console_scripts').load()())"
+    )
+    out = tmp_path / "out"
+    proc = subprocess.run(
+        [sys.executable, "-c", script, *TINY_BANDIT, "--n-prefs", "0", "--out", str(out)],
+        capture_output=True,
+        text=True,
+    )
+    assert proc.returncode == 2, proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert lines[0].startswith("[devices] "), lines
+    assert lines[-1] == "error: --n-prefs must be >= 1, got 0"
+    assert not out.exists()
+
+
+def test_the_sweep_package_does_not_import_the_command_line():
+    """`wcac_jax.cli` imports `wcac_jax.sweep`, never the reverse: `python -m
+    wcac_jax.sweep` runs `sweep/__main__.py` once, and the package is not executed twice."""
+    code = "import sys, wcac_jax.sweep; assert 'wcac_jax.cli' not in sys.modules, sys.modules"
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    proc = _cli(["--help"])
+    assert proc.returncode == 0 and proc.stdout.startswith("usage: "), proc.stderr

@@ -1,4 +1,5 @@
-"""The command line, `python -m wcac_jax.sweep`: flags to a `SweepConfig`, then `run_sweep`.
+"""The command line, `python -m wcac_jax.sweep` or `wcac-sweep`: flags to a `SweepConfig`,
+then `run_sweep`.
 
 Exit status: 0 done, 2 bad input (one line naming it; nothing written), 3 training
 diverged (the last good checkpoint is kept).
@@ -217,7 +218,8 @@ def build_parser() -> argparse.ArgumentParser:
             "spaced preferences. --preset paper applies the paper's recipe (and its nine "
             "preferences [1,0] [0.9,0.1] [0.8,0.2] [0.7,0.3] [0.5,0.5] [0.3,0.7] [0.2,0.8] "
             "[0.1,0.9] [0,1]) to any environment; --preset practical the practical update. "
-            "Explicit flags override the preset's values.",
+            "Explicit flags override the preset's values. Installed, the same command is "
+            "also `wcac-sweep`.",
             79,
         ),
         epilog=_defaults_table(),
@@ -250,15 +252,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--engine",
         default=None,
-        help="walker2d physics engine: mujoco (MuJoCo's C engine, multi-threaded; several "
-        "times faster on a CPU) or mjx (for accelerators) (default: "
-        f"{walker['engine']})",
+        help="physics engine of the MuJoCo tasks (walker2d, hopper, ...): mujoco (MuJoCo's C "
+        "engine, multi-threaded; several times faster on a CPU) or mjx (for accelerators) "
+        f"(default: {walker['engine']})",
     )
     p.add_argument(
         "--episode-length",
         type=int,
         default=None,
-        help="walker2d time limit in steps (default 500, as the paper)",
+        help="time limit of the MuJoCo tasks, in steps (default 500, as the paper)",
     )
     p.add_argument(
         "--steps-per-pref",
@@ -284,7 +286,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--chunks",
         type=int,
         default=10,
-        help="host round-trips (checkpoint + progress); does not change results (10)",
+        help="checkpoints per run (and progress lines in a log; on a terminal the bar "
+        "moves every few seconds); does not change results (10)",
     )
     p.add_argument("--quiet", action="store_true", help="no progress output")
     g = p.add_argument_group(
@@ -362,6 +365,8 @@ def config_from_args(args) -> SweepConfig:
         eval_episodes=args.eval_episodes,
         hv_ref=None if args.hv_ref is None else _parse_floats(args.hv_ref, "--hv-ref"),
     )
+    if args.preset is None and defaults.fallback and not args.quiet:
+        print(f"note: {defaults.note}", file=sys.stderr, flush=True)
     config, note = apply_selection_flags(args, config, defaults.selection_for(args.preset))
     if note is not None and not args.quiet:
         print(f"note: {note}", file=sys.stderr, flush=True)
@@ -450,9 +455,18 @@ def use_every_core(engine: str | None = None) -> str:
     )
 
 
-def main(argv=None, *, every_core: bool = False) -> int:
-    """The command line (`every_core=True` from `python -m wcac_jax.sweep`: one host device
-    per core unless `XLA_FLAGS` is set, said on the first line; see `use_every_core`)."""
+def main(argv=None, *, every_core: bool | None = None) -> int:
+    """The command line; returns the exit status (the console script `wcac-sweep` and
+    `python -m wcac_jax.sweep` exit with it).
+
+    Args:
+      argv: the arguments (`None`: the process's own, `sys.argv[1:]`).
+      every_core: one host device per core unless `XLA_FLAGS` is set, said on the first
+        line (`use_every_core`); `None`: when `argv` is `None`, i.e. when this process
+        is the command (a call from Python with its own arguments keeps JAX's devices).
+    """
+    if every_core is None:
+        every_core = argv is None
     args = build_parser().parse_args(argv)
     try:
         cluster = distributed.from_environment(
@@ -463,6 +477,8 @@ def main(argv=None, *, every_core: bool = False) -> int:
         return 2
     if every_core:
         engine = args.engine or dict(presets.env_defaults(args.env).env_options).get("engine")
+        if engine is None and args.env in envs.names():  # an unknown --env is reported below
+            engine = envs.option_defaults(args.env).get("engine")
         note = use_every_core(engine)
         if not args.quiet:
             print(note, file=sys.stderr, flush=True)
@@ -486,6 +502,10 @@ def main(argv=None, *, every_core: bool = False) -> int:
     except TrainingDiverged as err:
         print(f"error: {err}", file=sys.stderr)
         return 3
+    if front.get("finished"):  # `--resume` of a finished sweep: nothing done, nothing written
+        if not args.quiet:
+            print(f"{out} is finished (its front.json is written): --resume has nothing to do")
+        return 0
     if not distributed.is_writer():
         if not args.quiet:
             print(f"[process {jax.process_index()}] done; process 0 wrote {out}", file=sys.stderr)

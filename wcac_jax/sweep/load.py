@@ -1,0 +1,97 @@
+"""A finished or interrupted sweep read back from its output directory: `load_sweep`."""
+
+from __future__ import annotations
+
+import json
+import os
+from typing import Any, NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from wcac_jax import checkpoint, selection
+from wcac_jax.algos import make_evaluate, make_trainer
+from wcac_jax.runtime import Trainer, UpdateState, with_env_steps
+from wcac_jax.sweep.config import SweepConfig, SweepError, make_env
+from wcac_jax.utopia import PREF_AXIS
+
+
+class LoadedSweep(NamedTuple):
+    """A sweep restored from its output directory (see `load_sweep`).
+
+    Attributes:
+      config: the sweep's configuration (from `config.json`).
+      env: its environment (`make_env(config)`), the one `trainer` was built for.
+      trainer: the pure `init`/`step`/`run`/`mean_action` of its training setup.
+      state: the last checkpointed `UpdateState`, every leaf with the preference axis
+        first (`[P, ...]`); `state.iteration[i]` iterations are done.
+      metrics: per-iteration metrics `[P, T, ...]` (zeros past `state.iteration`), with
+        `train/env_steps` (int64) counted on the host from `train/iteration`.
+      chosen: with `config.select_last > 1` and the sweep finished, each preference's
+        reported policy (`wcac_jax.selection`, leaves `[P, ...]`), the one `front.json`
+        evaluated; else `None` (the reported policy is `state`'s).
+    """
+
+    config: SweepConfig
+    env: Any
+    trainer: Trainer
+    state: UpdateState
+    metrics: dict
+    chosen: UpdateState | None = None
+
+
+def load_sweep(out: str) -> LoadedSweep:
+    """Restores the last checkpoint of the sweep in `out`, finished or interrupted.
+
+    The trained policies and critics, to evaluate, render or inspect; or, after a
+    `TrainingDiverged`, the last good state, to replay iteration by iteration:
+
+        run = load_sweep("runs/x")
+        state_i = jax.tree.map(lambda leaf: leaf[i], run.state)  # preference i
+        state_i, metrics_i = jax.jit(run.trainer.step)(state_i, run.config.prefs[i])
+
+    Raises:
+      SweepError: `out` holds no sweep configuration or no checkpoint.
+    """
+    path = os.path.join(out, "config.json")
+    if not os.path.isfile(path):
+        raise SweepError(f"no sweep in {out!r} (no config.json)")
+    try:
+        with open(path) as f:
+            config = SweepConfig.from_dict(json.load(f))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError, KeyError, TypeError) as err:
+        raise SweepError(f"{path!r} holds no readable sweep config ({err!r})") from None
+    manager = checkpoint.manager(out)
+    if manager.latest_step() is None:
+        raise SweepError(f"no checkpoint in {out!r}")
+    env = make_env(config)
+    trainer = make_trainer(config.train_config(), env)
+    n_prefs, n_iters = len(config.prefs), config.num_iterations
+    prefs = jnp.asarray(np.asarray(config.prefs, np.float32))
+    keys = jax.vmap(lambda i: jax.random.fold_in(jax.random.key(config.seed), i))(
+        jnp.arange(n_prefs)
+    )
+    # shapes only: nothing is initialised or traced through the environment twice
+    state = jax.eval_shape(jax.vmap(trainer.init), keys, prefs)
+    shapes = jax.eval_shape(jax.vmap(trainer.step, axis_name=PREF_AXIS), state, prefs)[1]
+    template = {
+        "state": jax.tree.map(lambda s: np.zeros(s.shape, s.dtype), state),
+        "metrics": {
+            k: np.zeros((n_prefs, n_iters, *s.shape[1:]), s.dtype) for k, s in shapes.items()
+        },
+    }
+    pool = None
+    if config.select_last > 1:
+        evaluate = make_evaluate(config.train_config(), env, config.eval_episodes)
+        found = jax.eval_shape(jax.vmap(evaluate), state, keys)
+        pool = selection.Pool(config.candidate_iterations, template["state"], found)
+        template["selection"] = pool.tree
+    restored = checkpoint.restore(manager, template)
+    state = jax.tree.map(jnp.asarray, restored["state"])
+    metrics = with_env_steps(config.train_config(), restored["metrics"])
+    chosen = None
+    if pool is not None and int(restored["state"].iteration[0]) >= n_iters:
+        pool.tree = restored["selection"]
+        chosen = jax.tree.map(jnp.asarray, pool.choose(np.asarray(prefs))[3])
+    return LoadedSweep(config, env, trainer, state, metrics, chosen)
