@@ -19,12 +19,13 @@ unclipped sample.
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import NamedTuple, Protocol
+from typing import Any, NamedTuple, Protocol
 
 import chex
 import jax
 import jax.numpy as jnp
 import numpy as np
+import optax
 from brax.envs.base import State
 from brax.training.acme import running_statistics, specs
 from flax import struct
@@ -208,6 +209,30 @@ class VecEnv(NamedTuple):
 
     reset: Callable
     step: Callable
+
+
+class UpdateParts(NamedTuple):
+    """What an update's `make_trainer` builds once and its iteration's pieces take.
+
+    Attributes:
+      config: the update's configuration.
+      m: objectives; obs_size: the observation's size.
+      j_ub: `[m]` the fixed utopia point (`resolve_j_ub`).
+      policy, value_net: the networks; optimizer: the update's optax transformation.
+      preprocess: `(obs_stats, obs) -> network input` (`make_preprocess`).
+      env_step: `policy_step` with the policy bound; venv: the vectorized environment.
+    """
+
+    config: Any
+    m: int
+    obs_size: int
+    j_ub: chex.Array
+    policy: networks.Policy
+    value_net: networks.Network
+    optimizer: optax.GradientTransformation
+    preprocess: Callable
+    env_step: Callable
+    venv: VecEnv
 
 
 def vectorize(env) -> VecEnv:

@@ -21,8 +21,7 @@ bookkeeping, observation normalisation, the `Trainer`) are `wcac_jax.runtime`'s.
 from __future__ import annotations
 
 import functools
-from collections.abc import Callable
-from typing import Any, NamedTuple
+from typing import Any
 
 import chex
 import jax
@@ -170,22 +169,7 @@ def make_policy(config: PaperConfig, env) -> networks.Policy:
     )
 
 
-class _Parts(NamedTuple):
-    """What `make_trainer` builds once, for the iteration's pieces."""
-
-    config: PaperConfig
-    m: int
-    obs_size: int
-    j_ub: chex.Array
-    policy: networks.Policy
-    value_net: networks.Network
-    optimizer: optax.GradientTransformation
-    preprocess: Callable
-    env_step: Callable  # `runtime.policy_step` with the policy bound
-    venv: runtime.VecEnv
-
-
-def _init(parts: _Parts, key: chex.PRNGKey, pref: chex.Array) -> PaperState:
+def _init(parts: runtime.UpdateParts, key: chex.PRNGKey, pref: chex.Array) -> PaperState:
     del pref  # the initial state does not depend on the preference
     config = parts.config
     fields, key_critic = runtime.init_fields(
@@ -198,7 +182,7 @@ def _init(parts: _Parts, key: chex.PRNGKey, pref: chex.Array) -> PaperState:
     )
 
 
-def _critic_phase(parts: _Parts, state: PaperState, key: chex.PRNGKey):
+def _critic_phase(parts: runtime.UpdateParts, state: PaperState, key: chex.PRNGKey):
     """Algorithm 2: `K` TD steps on fresh on-policy transitions.
 
     Returns:
@@ -233,7 +217,7 @@ def _critic_phase(parts: _Parts, state: PaperState, key: chex.PRNGKey):
     return env_state, episodes, crit, critic_obs, td_abs
 
 
-def _actor_direction(parts: _Parts, state, crit, flat, start_obs, pref, direction):
+def _actor_direction(parts: runtime.UpdateParts, state, crit, flat, start_obs, pref, direction):
     """Algorithm 1's direction from an `M`-sample batch `flat` (leaves `[M, ...]`) under
     the averaged critics: `(d, weights [m], scalarized, j_hat [m], adv [M, m], obs_in)`."""
     config, value_net = parts.config, parts.value_net
@@ -266,7 +250,7 @@ def _actor_direction(parts: _Parts, state, crit, flat, start_obs, pref, directio
     return d, weights, scalarized, j_hat, adv, obs_in
 
 
-def _iteration(parts: _Parts, state: PaperState, pref: chex.Array, direction=None):
+def _iteration(parts: runtime.UpdateParts, state: PaperState, pref: chex.Array, direction=None):
     """One outer iteration (see the module docstring): `(state, metrics)`."""
     config, obs_size = parts.config, parts.obs_size
     key_critic, key_rollout = runtime.iteration_keys(state)
@@ -337,7 +321,7 @@ def make_trainer(config: PaperConfig, env) -> runtime.Trainer:
     preprocess = runtime.make_preprocess(
         config.normalize_obs, bias_feature=config.network == "paper"
     )
-    parts = _Parts(
+    parts = runtime.UpdateParts(
         config=config,
         m=int(env.num_objectives),
         obs_size=obs_size,

@@ -32,8 +32,6 @@ environment steps. Iteration `t` draws its randomness from `fold_in(state.key, t
 from __future__ import annotations
 
 import functools
-from collections.abc import Callable
-from typing import NamedTuple
 
 import chex
 import jax
@@ -394,22 +392,7 @@ def learning_rate(config: PracticalConfig) -> float | optax.Schedule:
     return optax.linear_schedule(config.learning_rate, 0.0, n_updates)
 
 
-class _Parts(NamedTuple):
-    """What `make_trainer` builds once, for the iteration's pieces."""
-
-    config: PracticalConfig
-    m: int
-    obs_size: int
-    j_ub: chex.Array
-    policy: networks.Policy
-    value_net: networks.Network
-    optimizer: optax.GradientTransformation
-    preprocess: Callable
-    env_step: Callable  # `runtime.policy_step` with the policy bound
-    venv: runtime.VecEnv
-
-
-def _init(parts: _Parts, key: chex.PRNGKey, pref: chex.Array) -> PracticalState:
+def _init(parts: runtime.UpdateParts, key: chex.PRNGKey, pref: chex.Array) -> PracticalState:
     del pref  # the initial state does not depend on the preference
     n_envs, m = parts.config.num_envs, parts.m
     fields, key_critic = runtime.init_fields(
@@ -428,7 +411,7 @@ def _init(parts: _Parts, key: chex.PRNGKey, pref: chex.Array) -> PracticalState:
     )
 
 
-def _advantages(parts: _Parts, state: PracticalState, batch, env_state):
+def _advantages(parts: runtime.UpdateParts, state: PracticalState, batch, env_state):
     """Scaled rewards, GAE and the objective estimates of a rollout `batch` (leaves
     `[L, N, ...]`).
 
@@ -462,7 +445,7 @@ def _advantages(parts: _Parts, state: PracticalState, batch, env_state):
     return discounted_return, return_stats, sigma, obs_in, adv, adv + v, j_hat
 
 
-def _scalarize(parts: _Parts, state: PracticalState, j_hat, pref, direction):
+def _scalarize(parts: runtime.UpdateParts, state: PracticalState, j_hat, pref, direction):
     """The utopia point and the scalarization at `j_hat`:
     `(utopia_state, z [m], weights [m], scalarized)`."""
     config = parts.config
@@ -481,7 +464,9 @@ def _scalarize(parts: _Parts, state: PracticalState, j_hat, pref, direction):
     return utopia_state, z, weights, scalarized
 
 
-def _optimise(parts: _Parts, state: PracticalState, batch, obs_in, scalar_adv, target, key):
+def _optimise(
+    parts: runtime.UpdateParts, state: PracticalState, batch, obs_in, scalar_adv, target, key
+):
     """`num_epochs` passes of minibatch steps on the iteration's `M` samples:
     `(params {"actor", "critic"}, opt_state, info, dist)` (`dist`: the behaviour
     policy's distributions at `obs_in`)."""
@@ -509,7 +494,7 @@ def _optimise(parts: _Parts, state: PracticalState, batch, obs_in, scalar_adv, t
     return params, opt_state, info, dist
 
 
-def _iteration(parts: _Parts, state: PracticalState, pref: chex.Array, direction=None):
+def _iteration(parts: runtime.UpdateParts, state: PracticalState, pref: chex.Array, direction=None):
     """One iteration (see the module docstring): `(state, metrics)`."""
     config = parts.config
     key_rollout, key_epochs = runtime.iteration_keys(state)
@@ -582,7 +567,7 @@ def make_trainer(config: PracticalConfig, env) -> runtime.Trainer:
     policy = make_policy(config, env)
     value_net = networks.tanh_mlp(obs_size, m, config.width, config.depth, 1.0)
     preprocess = runtime.make_preprocess(config.normalize_obs, obs_clip=config.obs_clip)
-    parts = _Parts(
+    parts = runtime.UpdateParts(
         config=config,
         m=m,
         obs_size=obs_size,
