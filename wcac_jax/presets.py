@@ -144,6 +144,21 @@ TABULAR = PaperConfig(
     projection_radius=math.inf,
 )
 
+
+def _mo_gymnasium_task(name: str) -> Defaults:
+    """An MO-Gymnasium MuJoCo task's default: Walker2d's update and budget on MuJoCo's C
+    engine, its final policies; not tuned on the task itself (no front of it is
+    committed yet), and the note says so."""
+    return Defaults(
+        "practical",
+        PracticalConfig(),
+        1_000_000,
+        "the practical preset at 1M env steps per preference on MuJoCo's C engine, as "
+        f"Walker2d's; not yet tuned for {name}",
+        (("engine", "mujoco"),),
+    )
+
+
 ENV_DEFAULTS: dict[str, Defaults] = {
     "walker2d": Defaults(
         "practical",
@@ -157,9 +172,14 @@ ENV_DEFAULTS: dict[str, Defaults] = {
         # each preference's best of its last 5 policies, 10 iterations apart: >= 7 of 9
         # points non-dominated on 14 of 17 seeds, against 7 for the same trainings' final
         # policies and 10 for the committed preset
-        # (experiments/results/walker2d_front_select5/RULE.md, its rule pre-registered)
+        # (experiments/results/walker2d_front_practical_v5_e5x16_select5/RULE.md, its rule
+        # pre-registered)
         selection=(5, 20_480),
     ),
+    **{
+        name: _mo_gymnasium_task(name)
+        for name in ("hopper", "hopper-2obj", "halfcheetah", "swimmer")
+    },
     "concave_bandit": Defaults(
         "presets.BANDIT",
         BANDIT,
