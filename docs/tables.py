@@ -334,6 +334,16 @@ def t_glance(doc: Doc) -> str:
     return md(["`--env`", "default", "what the front achieves", "wall, 2-core CPU"], rows)
 
 
+def fallen_prefs(f) -> str:
+    """The preferences of front `f` whose mean episode length is under the time limit,
+    each with that length (empty when every policy lasts its episodes)."""
+    return ", ".join(
+        f"`{pref_str(p)}` ({num(length, 0)})"
+        for p, length in zip(f.prefs, f.lengths, strict=True)
+        if length < T
+    )
+
+
 def t_cli_default(doc: Doc) -> str:
     rows = []
     for seed, run in enumerate(R["cli_default"]):
@@ -341,11 +351,7 @@ def t_cli_default(doc: Doc) -> str:
         g = f.final()
         s, n = f.forward_end
         gs, gn = g.forward_end
-        falls = ", ".join(
-            f"`{pref_str(p)}` ({num(length, 0)})"
-            for p, length in zip(f.prefs, f.lengths, strict=True)
-            if length < T
-        )
+        falls = fallen_prefs(f)
         rows.append(
             [
                 doc.link(str(seed), f.source),
@@ -376,11 +382,7 @@ def t_cli_final_default(doc: Doc) -> str:
     for seed, run in enumerate(R["cli_final_default"]):
         f = front_of(run)
         s, n = f.forward_end
-        falls = ", ".join(
-            f"`{pref_str(p)}` ({num(length, 0)})"
-            for p, length in zip(f.prefs, f.lengths, strict=True)
-            if length < T
-        )
+        falls = fallen_prefs(f)
         rows.append(
             [
                 doc.link(str(seed), f.source),
