@@ -1,5 +1,7 @@
-"""The synthetic KuaiRand-27K: files, columns, value ranges, the published signal rates,
-the response model's consistency with the drawn logs, and the CLI's bad input."""
+"""The synthetic KuaiRand-27K: files, columns and dtypes as the real layout's fixture,
+value ranges, rates calibrated to the protocol's subset, users interleaved in time, the
+response model's consistency with the drawn logs and its dependence on the session, and
+the CLI's bad input."""
 
 import os
 from pathlib import Path
@@ -8,12 +10,16 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from wcac_jax.recsys import data as data_lib
 from wcac_jax.recsys import synth
 from wcac_jax.recsys.data import LOG_COLUMNS
 from wcac_jax.recsys.kuairand import LAYOUTS
 
-# big enough that every published rate is a whole number of positives within 10 %
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+FIXTURE_27K = os.path.join(ROOT, "tests", "fixtures", "kuairand", "27k")
 CFG = synth.SynthConfig(users=200, videos=220, rows=24_000, seed=3)
+# a false failure of a 4-standard-error bound: 6e-5 per check (normal tails)
+Z = 4.0
 
 
 @pytest.fixture(scope="module")
@@ -23,11 +29,33 @@ def generated(tmp_path_factory):
     return out, model
 
 
+@pytest.fixture(scope="module")
+def kept(generated):
+    """Part1's rows the protocol keeps (its 150 most viewed videos), with their data row."""
+    out, _ = generated
+    log = pd.read_csv(os.path.join(out, synth.FILES["standard"][0]))
+    counts = log["video_id"].value_counts()
+    top = sorted(counts.index, key=lambda v: (-counts[v], v))[: synth.CANDIDATES]
+    return log[log["video_id"].isin(top)]
+
+
 def _standard(out):
     return pd.concat([pd.read_csv(os.path.join(out, f)) for f in synth.FILES["standard"]])
 
 
-def test_writes_every_kuairand_file_with_its_columns(generated):
+def _session_position(log):
+    """Each row's position in its user's session (sessions split at 30-minute gaps)."""
+    log = log.sort_values(["user_id", "time_ms"], kind="stable")
+    gap = np.r_[np.inf, np.diff(log["time_ms"].to_numpy())]
+    new = np.r_[True, np.diff(log["user_id"].to_numpy()) != 0] | (gap >= synth.SESSION_GAP_MS)
+    i = np.arange(len(log))
+    return log, i - np.maximum.accumulate(np.where(new, i, 0))
+
+
+def test_files_columns_and_dtypes_are_the_real_layouts(generated):
+    """Every file synth writes has the columns and dtypes of the same file in the
+    KuaiRand-27K fixture (the real schema: logs all int64, an integer `visible_status`,
+    the statistics' integer `counts` and 50 float per-day averages)."""
     out, _ = generated
     names = [
         *synth.FILES["standard"],
@@ -37,37 +65,42 @@ def test_writes_every_kuairand_file_with_its_columns(generated):
         *synth.FILES["video_statistic"],
     ]
     for name in names:
-        assert os.path.isfile(os.path.join(out, name)), name
-    for name in (*synth.FILES["standard"], synth.FILES["random"]):
-        assert tuple(pd.read_csv(os.path.join(out, name), nrows=1).columns) == synth.LOG_COLUMNS
+        mine = pd.read_csv(os.path.join(out, name))
+        real = pd.read_csv(os.path.join(FIXTURE_27K, name))
+        assert list(mine.columns) == list(real.columns), name
+        assert mine.dtypes.astype(str).to_dict() == real.dtypes.astype(str).to_dict(), name
+    stats = pd.concat([pd.read_csv(os.path.join(out, f)) for f in synth.FILES["video_statistic"]])
+    assert list(stats.columns) == ["video_id", "counts", *synth.STAT_COLUMNS]
+    assert len(stats) == CFG.videos and len(synth.STAT_COLUMNS) == 50
     users = pd.read_csv(os.path.join(out, synth.FILES["user"]))
-    assert list(users.columns[:13]) == [
-        "user_id",
-        "user_active_degree",
-        "is_lowactive_period",
-        "is_live_streamer",
-        "is_video_author",
-        "follow_user_num",
-        "follow_user_num_range",
-        "fans_user_num",
-        "fans_user_num_range",
-        "friend_user_num",
-        "friend_user_num_range",
-        "register_days",
-        "register_days_range",
-    ]
-    assert [f"onehot_feat{j}" for j in range(18)] == list(users.columns[13:])
-    assert pd.api.types.is_string_dtype(users["user_active_degree"])
     assert set(users["is_live_streamer"]) <= {0, 1, -124}
     basic = pd.read_csv(os.path.join(out, synth.FILES["video_basic"]))
-    assert {"video_id", "author_id", "video_type", "video_duration", "music_type", "tag"} <= set(
-        basic.columns
-    )
+    assert set(basic["visible_status"]) <= {0, 1}
     assert set(basic["video_type"]) <= {"NORMAL", "AD"}
-    assert basic["tag"].astype(str).str.fullmatch(r"\d+(,\d+)*").all()
+    # missing tags and durations, as in KuaiRand's basic features
+    tags = basic["tag"].dropna().astype(str)
+    assert tags.str.fullmatch(r"\d+(,\d+)*").all()
+    assert basic["tag"].isna().sum() >= 1 and basic["video_duration"].isna().sum() >= 1
+
+
+def test_statistics_are_per_day_averages(generated):
+    """Each statistic is the average over the video's (day, tab) pairs of that pair's
+    count, scaled to the platform: recomputed here from the logs for `show_cnt` and
+    `like_cnt` (the protocol reads `like_cnt`)."""
+    out, _ = generated
+    log = _standard(out)
     stats = pd.concat([pd.read_csv(os.path.join(out, f)) for f in synth.FILES["video_statistic"]])
-    assert len(stats) == CFG.videos
-    assert {"play_user_num", "play_duration", "like_cnt", "show_cnt"} <= set(stats.columns)
+    stats = stats.set_index("video_id")
+    pairs = log.groupby(["video_id", "date", "tab"])
+    per_video = pairs.size().groupby(level="video_id")
+    shown = per_video.size().index
+    np.testing.assert_array_equal(stats.loc[shown, "counts"], per_video.size())
+    np.testing.assert_allclose(
+        stats.loc[shown, "show_cnt"], (per_video.mean() * synth._STAT_SCALE).round(3)
+    )
+    like = pairs["is_like"].sum().groupby(level="video_id").mean() * synth._STAT_SCALE
+    np.testing.assert_allclose(stats.loc[shown, "like_cnt"], like.round(3))
+    assert stats["play_progress"].between(0, 1.5).all()
 
 
 def test_log_values_have_kuairand_types_and_ranges(generated):
@@ -90,36 +123,131 @@ def test_log_values_have_kuairand_types_and_ranges(generated):
         assert set(log[col]) <= {0, 1}, col
     assert log["date"].between(20220408, 20220421).all()
     assert log["tab"].between(0, 14).all() and (log["is_rand"] == 0).all()
-    assert (log["play_time_ms"] >= 0).all() and (log["play_time_ms"] <= log["duration_ms"]).all()
-    # grouped by user, time increasing within a user: episodes are consecutive rows
-    assert (np.diff(log["user_id"]) >= 0).all()
-    same = np.diff(log["user_id"]) == 0
-    assert (np.diff(log["time_ms"])[same] >= 0).all()
+    # Beijing time: the date and the whole hour of time_ms + 8 h
+    local = pd.to_datetime(log["time_ms"] + 8 * 3_600_000, unit="ms")
+    np.testing.assert_array_equal(log["date"], local.dt.strftime("%Y%m%d").astype(int))
+    np.testing.assert_array_equal(log["hourmin"], local.dt.hour * 100)
+    assert set(log["hourmin"]) <= {100 * h for h in range(24)}
+    # a few rows log no duration; play time up to 1.5 durations (replays) elsewhere
+    zero = log["duration_ms"] <= 0
+    assert 0 < zero.sum() < 0.02 * len(log)
+    assert (log["play_time_ms"] >= 0).all()
+    assert (log["play_time_ms"][~zero] <= 1.5 * log["duration_ms"][~zero]).all()
+    assert (log["play_time_ms"][~zero] > log["duration_ms"][~zero]).any()
     rand = pd.read_csv(os.path.join(out, synth.FILES["random"]))
     assert (rand["is_rand"] == 1).all() and rand["date"].between(20220422, 20220508).all()
 
 
-def test_standard_log_rates_within_10_percent_of_kuairand_pure(generated):
+def test_users_interleaved_in_time_one_episode_per_user(generated):
+    """Each file is in time order with users interleaved; the loader makes one episode
+    per user, of mean length kept rows / users."""
     out, _ = generated
-    log = _standard(out)
-    for col, rate in synth.PURE_RATES.items():
-        assert abs(log[col].mean() / rate - 1.0) <= 0.10, (col, log[col].mean(), rate)
+    for name in (*synth.FILES["standard"], synth.FILES["random"]):
+        log = pd.read_csv(os.path.join(out, name))
+        assert (np.diff(log["time_ms"]) >= 0).all(), name
+        if name != synth.FILES["random"]:  # (the small random log is sparse in time)
+            assert (np.diff(log["user_id"]) != 0).sum() > 5 * log["user_id"].nunique(), name
+    log = pd.read_csv(os.path.join(out, synth.FILES["standard"][0]))
+    data = data_lib.load(out)
+    kept = log[log["video_id"].isin(data.video_ids)]
+    users = kept["user_id"].nunique()
+    assert data.n_rows == len(kept) and data.n_episodes == users == len(data.user_ids)
+    # in file order, the same rows would make episodes a few rows long
+    in_file_order = np.r_[np.diff(kept["user_id"]) != 0, True].sum()
+    assert in_file_order > 5 * users
 
 
-def test_response_model_matches_the_drawn_logs(generated):
-    """The truth the generator exposes is the model the logs were drawn from."""
+def test_expected_rates_on_the_protocol_rows_are_the_targets(generated, kept):
+    """Calibration: the model's expected rates over the rows the protocol keeps equal the
+    targets (to the bisection's precision)."""
+    _, model = generated
+    ctx = model.logged_context(kept.index.to_numpy())
+    e = model.expected(kept["user_id"].to_numpy(), kept["video_id"].to_numpy(), ctx).mean(0)
+    targets = [*synth.TARGET_RATES.values(), synth.TARGET_PLAY_TIME_MS / 1e4]
+    np.testing.assert_allclose(e, targets, rtol=1e-9)
+
+
+def test_realised_rates_within_binomial_error_of_the_targets(generated):
+    """The protocol's rows (as the loader keeps them) hold the target rates up to
+    sampling noise: every signal is an independent draw whose mean over the n kept rows
+    is the target p, so the realised rate has standard error sqrt(p (1 - p) / n) (watch
+    time: its sample standard deviation / sqrt(n)); the bound is Z = 4 of them."""
+    out, _ = generated
+    data = data_lib.load(out)
+    reward = np.asarray(data.reward, np.float64)
+    n = reward.shape[0]
+    for j, (col, p) in enumerate(synth.TARGET_RATES.items()):
+        se = np.sqrt(p * (1 - p) / n)
+        assert abs(reward[:, j].mean() - p) <= Z * se, (col, reward[:, j].mean(), p, se)
+    watch = reward[:, 6]
+    se = watch.std() / np.sqrt(n)
+    assert abs(watch.mean() - synth.TARGET_PLAY_TIME_MS / 1e4) <= Z * se
+
+
+def test_response_model_matches_the_drawn_logs(generated, kept):
+    """The truth the generator exposes is the model the logs were drawn from: on the
+    kept rows each signal's realised count is within Z binomial standard errors of the
+    model's expected count (Poisson-binomial variance sum p (1 - p))."""
     out, model = generated
-    log = _standard(out)
-    expected = model.expected(log["user_id"].to_numpy(), log["video_id"].to_numpy()).mean(0)
-    drawn = [log[c].mean() for c in ("is_click", "is_like", "is_follow")]
-    np.testing.assert_allclose(expected[:3], drawn, rtol=0.05)
-    np.testing.assert_allclose(expected[6], log["play_time_ms"].mean() / 1e4, rtol=0.05)
-    # the random log is drawn independently (plain Bernoulli) from the same model
+    ctx = model.logged_context(kept.index.to_numpy())
+    e = model.expected(kept["user_id"].to_numpy(), kept["video_id"].to_numpy(), ctx)
+    for j, col in enumerate(synth.TARGET_RATES):
+        se = np.sqrt((e[:, j] * (1 - e[:, j])).sum())
+        assert abs(kept[col].sum() - e[:, j].sum()) <= Z * se, col
+    # the random log is drawn from the same model, context-free rows included
     rand = pd.read_csv(os.path.join(out, synth.FILES["random"]))
-    r_exp = model.expected(rand["user_id"].to_numpy(), rand["video_id"].to_numpy()).mean(0)
-    assert abs(r_exp[0] - rand["is_click"].mean()) < 4 * np.sqrt(r_exp[0] / len(rand))
+    r_exp = model.expected(rand["user_id"].to_numpy(), rand["video_id"].to_numpy())
+    assert r_exp.shape == (len(rand), 7)
     loaded = synth.ResponseModel.load(os.path.join(out, synth.MODEL_FILE))
     np.testing.assert_array_equal(loaded.expected([0, 1], [5, 7]), model.expected([0, 1], [5, 7]))
+    np.testing.assert_array_equal(loaded.log_context, model.log_context)
+
+
+def test_click_rate_falls_with_consecutive_views(generated):
+    """Fatigue and satiation are measurable in the log: the click rate of a session's
+    first view is above that of its 10th and later views by more than Z standard errors
+    of the difference."""
+    out, _ = generated
+    log, pos = _session_position(_standard(out))
+    first, late = log["is_click"][pos == 0], log["is_click"][pos >= 10]
+    se = np.sqrt(first.var() / len(first) + late.var() / len(late))
+    assert first.mean() - late.mean() > Z * se, (first.mean(), late.mean(), se)
+
+
+def test_the_session_context_is_what_the_log_shows(generated):
+    """A logged row's context is the videos of its session's earlier rows, most recent
+    first (rebuilt here from the file's times)."""
+    out, model = generated
+    log = pd.read_csv(os.path.join(out, synth.FILES["standard"][0]))
+    by_user, pos = _session_position(log)
+    video = by_user["video_id"].to_numpy()
+    for i in np.flatnonzero(pos >= 3)[:50]:
+        want = video[i - min(pos[i], synth.CONTEXT) : i][::-1]
+        got = model.logged_context(by_user.index[i])
+        np.testing.assert_array_equal(got[: len(want)], want)
+        assert (got[len(want) :] == -1).all()
+
+
+def test_a_discounted_objective_differs_from_a_one_step_one(generated):
+    """Over a session, repeating the one video that is best on a fresh session earns
+    fewer discounted clicks (gamma = 0.99) than choosing greedily given what was shown:
+    the best first choice is not the best policy."""
+    _, model = generated
+    gamma, steps, gains = 0.99, 20, []
+    for u in model.user_ids[:20]:
+        fresh = model.expected(u, model.video_ids)[:, 0]
+        best = model.video_ids[np.argmax(fresh)]
+        ret = {"repeat": 0.0, "greedy": 0.0}
+        for policy in ret:
+            shown = []
+            for t in range(steps):
+                ctx = (shown[::-1] + [-1] * synth.CONTEXT)[: synth.CONTEXT]
+                p = model.expected(u, model.video_ids, np.array(ctx))[:, 0]
+                v = best if policy == "repeat" else model.video_ids[np.argmax(p)]
+                ret[policy] += gamma**t * p[np.searchsorted(model.video_ids, v)]
+                shown.append(int(v))
+        gains.append(ret["greedy"] / ret["repeat"] - 1.0)
+    assert min(gains) > 0.0 and np.mean(gains) > 0.05, gains
 
 
 def test_signals_are_correlated_and_partly_in_conflict(generated):

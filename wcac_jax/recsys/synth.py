@@ -7,26 +7,44 @@ The model. Each user has a latent taste `z_u` (`[k]`) and each video a latent `y
 `d = log(duration / 30 s)`, controversy `c`, author appeal `f` and shareability `s`.
 With the affinity `a = z_u . y_v / sqrt(k)` the per-impression probabilities are
 
-  click            sigmoid(b_click + 1.0 a + 0.4 q + 0.3 z_u[0])
-  like | click     sigmoid(b_like + 1.2 a + 0.8 q - 0.8 d + 0.3 z_u[1])
+  click            sigmoid(b_click + 1.0 a + 0.4 q + 0.3 z_u[0] - 0.06 n - 0.5 m)
+  like | click     sigmoid(b_like + 1.2 a + 0.8 q - 0.8 d + 0.3 z_u[1] - 0.4 m)
   follow | click   sigmoid(b_follow + 0.8 a + 1.0 f + 0.2 q)
   comment | click  sigmoid(b_comment + 0.6 a + 0.9 c + 0.3 z_u[2])
   forward | click  sigmoid(b_forward + 0.6 a + 0.9 s - 0.5 d)
-  hate             sigmoid(b_hate - 0.9 a + 0.8 c - 0.5 q)          (no click needed)
-  play_time        click * duration * sigmoid(b_watch + 0.9 a + 0.5 q - 0.4 d + 0.6 eps)
+  hate             sigmoid(b_hate - 0.9 a + 0.8 c - 0.5 q + 0.5 m)   (no click needed)
+  play_time        click * 1.5 duration * sigmoid(b_watch + 0.9 a + 0.5 q - 0.4 d
+                                                    - 0.04 n - 0.4 m + 0.6 eps)
 
 so the signals share the affinity (correlated) and partly conflict: watch time grows
 with duration while likes and forwards fall with it, and controversy raises comments
-together with dislikes. The user features (`onehot_feat*`, activity) are noisy
-quantisations of `z_u`, so the signals are learnable from the features.
+together with dislikes. Responses depend on the session so far: `n` is the number of
+videos the user saw earlier in the same session (at most `CONTEXT`; fatigue), and
+`m = sum_j 0.7^j [tag of the j-th previous video = this video's tag]` (j = 0 the most
+recent; satiation). A policy that keeps showing the one best-fitting tag lowers its own
+later rewards, so a discounted objective differs from a one-step one. The user features
+(`onehot_feat*`, activity) are noisy quantisations of `z_u`, so the signals are
+learnable from the features.
 
-The logged ("standard") policy shows video `v` to user `u` with probability
-`∝ pop_v exp(0.8 a + 0.4 q)`; the random-exposure log shows uniform videos. The biases
-`b_*` are calibrated (bisection) so that the standard logs' expected rates equal
-KuaiRand-Pure's published rates, and each binary signal's positives are then drawn as a
-sample of exactly `round(rate * rows)` rows with odds proportional to the model's
-(Gumbel top-k on the log-odds, an approximation of conditional Bernoulli sampling), so
-the realised rates match the published ones to rounding.
+The logs. Each user's views come in sessions (on average `MEAN_SESSION` views, a few
+seconds to a minute apart; sessions at least `SESSION_GAP_MS` apart) spread over the
+log's dates; each file holds its rows in time order, users interleaved, as KuaiRand's
+logs do. `date` and `hourmin` are Beijing time (UTC+8), `hourmin` the whole hour times
+100. The logged ("standard") policy shows video `v` to user `u` with probability
+`∝ pop_v exp(0.8 a + 0.4 q)`, whatever the session; the random-exposure log shows uniform
+videos. A few rows log `duration_ms` 0, a few videos lack `tag` or `video_duration`.
+
+Calibration. The biases `b_*` are set (bisection) so that the EXPECTED rates over the
+rows the protocol keeps (`log_standard_..._part1.csv`'s rows of its `CANDIDATES` most
+viewed videos) equal `TARGET_RATES` and `TARGET_PLAY_TIME_MS`: the test means of the
+public KuaiRand-27K pipeline this benchmark follows (on that subset, not the whole of
+KuaiRand). Every signal is then an independent draw from the model, so the realised
+rates differ from the targets by sampling noise only (binomial: about
+`sqrt(p (1 - p) / rows)`).
+
+The statistics files hold, per video, the average over the (day, tab) pairs it was shown
+in of that pair's counts (`counts` is the number of pairs), scaled up to a platform with
+more users than the log, as KuaiRand's per-day averages are.
 
 Command line: `python -m wcac_jax.recsys.synth --out DIR [--users U --videos V --rows R
 --seed S | --paper-scale] [--overwrite]`. Bad input prints one `error:` line, exits 2,
@@ -47,16 +65,18 @@ from wcac_jax.outputs import unwritable_dir
 from wcac_jax.recsys.cli import ArgumentParser
 from wcac_jax.recsys.kuairand import LAYOUTS
 
-# KuaiRand-Pure standard logs (RECSYS.md §1); watch time: the protocol's test mean.
-PURE_RATES = {
-    "is_click": 0.460,
-    "is_like": 0.0185,
-    "is_comment": 0.00255,
-    "is_follow": 0.00107,
-    "is_forward": 0.00096,
-    "is_hate": 0.00049,
+# The protocol subset's test means in the public KuaiRand-27K pipeline (its reference
+# means of the logged policy): click, like, follow, comment, forward, hate; watch time.
+TARGET_RATES = {
+    "is_click": 0.533783,
+    "is_like": 0.0123087,
+    "is_follow": 4.60754e-4,
+    "is_comment": 3.22528e-3,
+    "is_forward": 1.11897e-3,
+    "is_hate": 2.30377e-4,
 }
-MEAN_PLAY_TIME_MS = 12_850.0
+TARGET_PLAY_TIME_MS = 12_854.7
+CANDIDATES = 150  # the protocol's kept videos, on which the rates are calibrated
 SIGNALS = ("click", "like", "follow", "comment", "forward", "hate", "watch_time")
 
 LOG_COLUMNS = (
@@ -80,6 +100,59 @@ LOG_COLUMNS = (
     "is_rand",
     "tab",
 )
+# KuaiRand's statistics columns after `video_id` and `counts` (all float64 averages)
+STAT_COLUMNS = (
+    "show_cnt",
+    "show_user_num",
+    "play_cnt",
+    "play_user_num",
+    "play_duration",
+    "complete_play_cnt",
+    "complete_play_user_num",
+    "valid_play_cnt",
+    "valid_play_user_num",
+    "long_time_play_cnt",
+    "long_time_play_user_num",
+    "short_time_play_cnt",
+    "short_time_play_user_num",
+    "play_progress",
+    "comment_stay_duration",
+    "like_cnt",
+    "like_user_num",
+    "click_like_cnt",
+    "double_click_cnt",
+    "cancel_like_cnt",
+    "cancel_like_user_num",
+    "comment_cnt",
+    "comment_user_num",
+    "direct_comment_cnt",
+    "reply_comment_cnt",
+    "delete_comment_cnt",
+    "delete_comment_user_num",
+    "comment_like_cnt",
+    "comment_like_user_num",
+    "follow_cnt",
+    "follow_user_num",
+    "cancel_follow_cnt",
+    "cancel_follow_user_num",
+    "share_cnt",
+    "share_user_num",
+    "download_cnt",
+    "download_user_num",
+    "report_cnt",
+    "report_user_num",
+    "reduce_similar_cnt",
+    "reduce_similar_user_num",
+    "collect_cnt",
+    "collect_user_num",
+    "cancel_collect_cnt",
+    "cancel_collect_user_num",
+    "direct_comment_user_num",
+    "reply_comment_user_num",
+    "share_all_cnt",
+    "share_all_user_num",
+    "outsite_share_all_cnt",
+)
 FILES = {
     "standard": (
         "log_standard_4_08_to_4_21_27k_part1.csv",
@@ -98,17 +171,18 @@ MODEL_FILE = "synthetic_response_model.npz"
 
 LATENT = 4
 N_TAGS = 30
-# onehot_feat0..17 cardinalities, close to KuaiRand's
-ONEHOT_SIZES = (2, 7, 50, 1471, 15, 34, 3, 118, 454, 7, 5, 5, 3, 2, 2, 2, 2, 2)
+# onehot_feat0..17 cardinalities, KuaiRand's
+ONEHOT_SIZES = (2, 7, 50, 1471, 15, 34, 3, 118, 454, 7, 5, 5, 2, 2, 2, 2, 2, 2)
 # (weight on affinity, on traits...) of each binary signal's logit; see module docstring
-_W_CLICK = dict(a=1.0, q=0.4, z0=0.3)
-_W_LIKE = dict(a=1.2, q=0.8, d=-0.8, z1=0.3)
+_W_CLICK = dict(a=1.0, q=0.4, z0=0.3, n=-0.06, m=-0.5)
+_W_LIKE = dict(a=1.2, q=0.8, d=-0.8, z1=0.3, m=-0.4)
 _W_FOLLOW = dict(a=0.8, f=1.0, q=0.2)
 _W_COMMENT = dict(a=0.6, c=0.9, z2=0.3)
 _W_FORWARD = dict(a=0.6, s=0.9, d=-0.5)
-_W_HATE = dict(a=-0.9, c=0.8, q=-0.5)
-_W_WATCH = dict(a=0.9, q=0.5, d=-0.4)
+_W_HATE = dict(a=-0.9, c=0.8, q=-0.5, m=0.5)
+_W_WATCH = dict(a=0.9, q=0.5, d=-0.4, n=-0.04, m=-0.4)
 _WATCH_NOISE = 0.6
+_WATCH_MAX = 1.5  # play time up to 1.5 durations: replays, as in KuaiRand's logs
 _BINARY = (
     ("is_click", _W_CLICK),
     ("is_like", _W_LIKE),
@@ -119,6 +193,18 @@ _BINARY = (
 )
 _GATED = ("is_like", "is_follow", "is_comment", "is_forward")  # need a click
 
+# The session: how many earlier views matter, how fast satiation decays, sizes and gaps.
+CONTEXT = 10
+SATIATION_DECAY = 0.7
+MEAN_SESSION = 12
+SESSION_GAP_MS = 30 * 60_000
+_VIEW_GAP_MS = (2_000, 20_000)  # a view's gap to the next in a session: min + exp(mean)
+BEIJING_MS = 8 * 3_600_000
+_ZERO_DURATION_ROWS = 0.005  # rows logging duration_ms 0
+_MISSING_TAG, _MISSING_DURATION = 0.01, 0.005  # videos without tag / video_duration
+# The platform-wide statistics cover far more users than the log; scale the log's counts.
+_STAT_SCALE = 37
+
 
 @dataclass(frozen=True)
 class SynthConfig:
@@ -128,7 +214,8 @@ class SynthConfig:
       users: number of users.
       videos: number of videos (the protocol keeps the 150 most viewed).
       rows: rows of `log_standard_..._part1.csv` (the file the protocol reads); part2
-        holds `rows // 4` more rows of the same users, the random log `rows // 10`.
+        holds `rows // 4` more rows of the same users (other sessions), the random log
+        `rows // 10`.
       seed: PRNG seed; the data set is a pure function of the config.
     """
 
@@ -158,13 +245,17 @@ def _sigmoid(x):
 
 @dataclass(frozen=True)
 class ResponseModel:
-    """The generator's response model: latent users and videos and calibrated biases.
+    """The generator's response model: latent users and videos, calibrated biases, and
+    each row's session context in the protocol's log.
 
     Attributes:
       user_ids: `[U]`; z: `[U, k]` user tastes.
       video_ids: `[V]`; y: `[V, k]` video latents; traits: `[V, 6]` columns
-        `(q, d, c, f, s, duration_ms)`.
+        `(q, d, c, f, s, duration_ms)`; tag: `[V]` first tag (satiation's similarity).
       bias: `[7]` biases of click, like, follow, comment, forward, hate, watch.
+      log_context: `[R, CONTEXT]` for each data row (0-based, file order) of
+        `log_standard_..._part1.csv`, the video ids seen earlier in the same session,
+        most recent first, -1 where none.
     """
 
     user_ids: np.ndarray
@@ -172,23 +263,43 @@ class ResponseModel:
     video_ids: np.ndarray
     y: np.ndarray
     traits: np.ndarray
+    tag: np.ndarray
     bias: np.ndarray
+    log_context: np.ndarray
 
-    def _terms(self, ui, vi):
+    def _terms(self, ui, vi, ci):
         q, d, c, f, s, dur = (self.traits[vi, j] for j in range(6))
         z = self.z[ui]
         a = np.sum(z * self.y[vi], axis=-1) / np.sqrt(self.z.shape[1])
-        return dict(a=a, q=q, d=d, c=c, f=f, s=s, z0=z[..., 0], z1=z[..., 1], z2=z[..., 2]), dur
+        seen = ci >= 0
+        n = seen.sum(axis=-1).astype(np.float64)
+        same = seen & (self.tag[np.maximum(ci, 0)] == self.tag[vi][..., None])
+        m = same @ SATIATION_DECAY ** np.arange(ci.shape[-1])
+        terms = dict(a=a, q=q, d=d, c=c, f=f, s=s, n=n, m=m)
+        terms.update(z0=z[..., 0], z1=z[..., 1], z2=z[..., 2])
+        return terms, dur
 
-    def logits(self, ui, vi):
-        """Per-impression logits without biases: `{signal: [...]}` and durations `[...]`."""
-        terms, dur = self._terms(ui, vi)
+    def logits(self, ui, vi, ci):
+        """Per-impression logits without biases: `{signal: [...]}` and durations `[...]`.
+
+        Args:
+          ui, vi: `[...]` user and video indices (rows of `z`, `y`); ci: `[..., K]`
+            indices of the videos seen earlier in the session, most recent first, -1
+            where none.
+        """
+        terms, dur = self._terms(ui, vi, ci)
         out = {name: sum(w * terms[k] for k, w in ws.items()) for name, ws in _BINARY}
         out["watch"] = sum(w * terms[k] for k, w in _W_WATCH.items())
         return out, dur
 
-    def expected(self, user_ids, video_ids) -> np.ndarray:
+    def expected(self, user_ids, video_ids, context=None) -> np.ndarray:
         """TRUE expected signals of showing `video_ids` to `user_ids` (broadcast).
+
+        Args:
+          user_ids, video_ids: ids, broadcast together to `[...]`.
+          context: `[..., K]` ids of the videos the user saw earlier in the session, most
+            recent first, -1 where none (a logged row's: `logged_context`); by default
+            none, the first view of a session.
 
         Returns:
           `[..., 7]`: P(click), P(like), P(follow), P(comment), P(forward), P(hate),
@@ -197,18 +308,32 @@ class ResponseModel:
         ui = np.searchsorted(self.user_ids, user_ids)
         vi = np.searchsorted(self.video_ids, video_ids)
         ui, vi = np.broadcast_arrays(ui, vi)
-        lg, dur = self.logits(ui, vi)
+        if context is None:
+            ci = np.full((*ui.shape, 1), -1)
+        else:
+            context = np.asarray(context)
+            ci = np.where(context >= 0, np.searchsorted(self.video_ids, context), -1)
+            shape = np.broadcast_shapes(ui.shape, ci.shape[:-1])
+            ui, vi = np.broadcast_to(ui, shape), np.broadcast_to(vi, shape)
+            ci = np.broadcast_to(ci, (*shape, ci.shape[-1]))
+        lg, dur = self.logits(ui, vi, ci)
         b = self.bias
         click = _sigmoid(b[0] + lg["is_click"])
         out = [click]
         for j, name in enumerate(("is_like", "is_follow", "is_comment", "is_forward"), 1):
             out.append(click * _sigmoid(b[j] + lg[name]))
         out.append(_sigmoid(b[5] + lg["is_hate"]))
-        out.append(click * dur * _expected_sigmoid(b[6] + lg["watch"], _WATCH_NOISE) / 1e4)
+        watch = _WATCH_MAX * dur * _expected_sigmoid(b[6] + lg["watch"], _WATCH_NOISE)
+        out.append(click * watch / 1e4)
         return np.stack(out, axis=-1)
 
+    def logged_context(self, log_rows) -> np.ndarray:
+        """`[..., CONTEXT]` session contexts (video ids, -1 none) of data rows of the
+        protocol's log file (`Protocol.log_row`)."""
+        return self.log_context[np.asarray(log_rows)]
+
     def save(self, path: str) -> None:
-        np.savez(path, **{k: getattr(self, k) for k in self.__dataclass_fields__})
+        np.savez_compressed(path, **{k: getattr(self, k) for k in self.__dataclass_fields__})
 
     @classmethod
     def load(cls, path: str) -> ResponseModel:
@@ -223,24 +348,15 @@ def _expected_sigmoid(mean, scale, order: int = 20):
     return np.tensordot(_sigmoid(np.asarray(mean)[..., None] + scale * x), w, axes=1)
 
 
-def _bisect_bias(logit, target_sum, lo=-30.0, hi=30.0, iters=60):
-    """The bias `b` with `sum(sigmoid(b + logit)) = target_sum` (monotone in `b`)."""
+def _bisect(total, target_sum, lo=-30.0, hi=30.0, iters=60):
+    """The `b` with `total(b) = target_sum`, for `total` increasing in `b`."""
     for _ in range(iters):
         mid = 0.5 * (lo + hi)
-        if _sigmoid(mid + logit).sum() < target_sum:
+        if total(mid) < target_sum:
             lo = mid
         else:
             hi = mid
     return 0.5 * (lo + hi)
-
-
-def _exact_count_sample(rng, logit, k):
-    """Exactly `k` positives, drawn with odds `exp(logit)` (Gumbel top-k on log-odds)."""
-    out = np.zeros(logit.shape, np.int64)
-    if k > 0:
-        keys = logit + rng.gumbel(size=logit.shape)
-        out[np.argpartition(-keys, k - 1)[:k]] = 1
-    return out
 
 
 def _buckets(values, edges, labels):
@@ -305,11 +421,13 @@ def _users(rng, cfg: SynthConfig):
         # a noisy, monotone quantisation of one latent coordinate: learnable from features
         x = z[:, j % LATENT] + 0.3 * rng.normal(size=cfg.users)
         ranks = np.argsort(np.argsort(x)) / cfg.users
-        col = np.floor(ranks * size).astype(np.float64)
-        if j in (4, 9):  # KuaiRand has missing values in a few of these columns
-            col[rng.random(cfg.users) < 0.01] = np.nan
-        df[f"onehot_feat{j}"] = col
+        df[f"onehot_feat{j}"] = np.floor(ranks * size).astype(np.int64)
     return df, z, activity
+
+
+def _some(rng, n, share):
+    """`max(1, round(share n))` distinct indices below `n`: at least one at every size."""
+    return rng.choice(n, max(1, round(share * n)), replace=False)
 
 
 def _videos(rng, cfg: SynthConfig):
@@ -323,9 +441,13 @@ def _videos(rng, cfg: SynthConfig):
     q, c, f, s = (rng.normal(size=cfg.videos) for _ in range(4))
     traits = np.stack([q, d, c, f, s, duration.astype(np.float64)], axis=1)
     tag2 = rng.integers(0, 300, cfg.videos)
-    tags = [f"{a},{b}" if rng.random() < 0.6 else f"{a}" for a, b in zip(tag1, tag2, strict=True)]
+    tags = np.array(
+        [f"{a},{b}" if rng.random() < 0.6 else f"{a}" for a, b in zip(tag1, tag2, strict=True)],
+        dtype=object,
+    )
+    tags[_some(rng, cfg.videos, _MISSING_TAG)] = np.nan
     dur_col = duration.astype(np.float64)
-    dur_col[rng.random(cfg.videos) < 0.005] = np.nan
+    dur_col[_some(rng, cfg.videos, _MISSING_DURATION)] = np.nan
     basic = pd.DataFrame(
         {
             "video_id": video_ids,
@@ -336,18 +458,18 @@ def _videos(rng, cfg: SynthConfig):
             "upload_type": rng.choice(
                 ["ShortImport", "Web", "PictureSet", "LongImport"], cfg.videos
             ),
-            "visible_status": rng.choice(["public", "friend_visible"], cfg.videos, p=[0.97, 0.03]),
+            "visible_status": rng.choice([1, 0], cfg.videos, p=[0.97, 0.03]),
             "video_duration": dur_col,
             "server_width": rng.choice([720, 1080, 540], cfg.videos),
             "server_height": rng.choice([1280, 1920, 960], cfg.videos),
             "music_id": rng.integers(0, 5000, cfg.videos),
-            "music_type": rng.choice([4.0, 8.0, 9.0, 11.0], cfg.videos),
+            "music_type": rng.choice([4, 8, 9, 11], cfg.videos),
             "tag": tags,
         }
     )
     basic["upload_dt"] = basic["upload_dt"].dt.strftime("%Y-%m-%d")
     pop = rng.lognormal(0.0, 1.0, cfg.videos)
-    return basic, y, traits, pop
+    return basic, y, traits, tag1, pop
 
 
 def _choose_videos(rng, pref_logits, user_of_row, block: int = 50_000):
@@ -362,22 +484,132 @@ def _choose_videos(rng, pref_logits, user_of_row, block: int = 50_000):
     return out
 
 
-def _times(rng, user_of_row, start_day, days):
-    """Dates, hourmin and time_ms increasing within each user (rows sorted by user)."""
-    n = user_of_row.shape[0]
-    base = pd.Timestamp(start_day).value // 1_000_000
-    t = base + rng.integers(0, days * 86_400_000, n)
-    order = np.lexsort((t, user_of_row))
-    t = t[order]
-    stamp = pd.to_datetime(t, unit="ms")
-    date = stamp.strftime("%Y%m%d").astype(np.int64)
-    hourmin = (stamp.hour * 100 + (stamp.minute // 30) * 30).to_numpy().astype(np.int64)
-    return date, hourmin, t
-
-
 def _rows_per_user(rng, activity, rows):
-    counts = rng.multinomial(rows - activity.shape[0], activity / activity.sum()) + 1
-    return np.repeat(np.arange(activity.shape[0]), counts)
+    """`[U]` rows of each user (each at least one), in proportion to activity."""
+    return rng.multinomial(rows - activity.shape[0], activity / activity.sum()) + 1
+
+
+def _sessions(rng, counts):
+    """Rows grouped by user, each user's rows cut into sessions.
+
+    Returns:
+      `(user, first)`: `[N]` the row's user and whether it opens a session.
+    """
+    user = np.repeat(np.arange(counts.shape[0]), counts)
+    first = np.r_[True, user[1:] != user[:-1]] | (rng.random(user.shape[0]) < 1 / MEAN_SESSION)
+    return user, first
+
+
+def _timeline(rng, user, first, start_day: str, days: int):
+    """Times of rows whose sessions are consecutive (`_sessions`' output, or several
+    concatenated): each user's sessions in a random order over the window, at least
+    `SESSION_GAP_MS` apart, the views of a session a few seconds apart.
+
+    Returns:
+      `[N]` int64 `time_ms` (UTC), the window starting at `start_day` 00:00 Beijing time.
+    """
+    session = np.cumsum(first) - 1
+    gap = _VIEW_GAP_MS[0] + rng.exponential(_VIEW_GAP_MS[1], user.shape[0])
+    csum = np.cumsum(gap) - gap
+    offset = csum - csum[np.flatnonzero(first)][session]  # from the session's start
+    s_user = user[first]
+    s_len = np.bincount(session, weights=gap) + SESSION_GAP_MS
+    window = days * 86_400_000.0
+    total = np.bincount(s_user, weights=s_len, minlength=user.max() + 1)
+    # a user whose sessions cannot fit the window is squeezed (none at the usual sizes)
+    squeeze = np.minimum(1.0, 0.95 * window / np.maximum(total, 1.0))
+    order = np.lexsort((rng.random(s_user.shape[0]), s_user))  # random order per user
+    o_user = s_user[order]
+    o_len = s_len[order] * squeeze[o_user]
+    before = np.cumsum(o_len) - o_len
+    user_start = np.r_[True, o_user[1:] != o_user[:-1]]
+    before -= before[np.flatnonzero(user_start)][np.cumsum(user_start) - 1]
+    # sorted uniform offsets in the free time keep the sessions apart and in the window
+    free = np.maximum(window - total * squeeze, 0.0)[o_user]
+    u = rng.random(o_user.shape[0])
+    s_start = np.empty_like(before)
+    s_start[order] = before + u[np.lexsort((u, o_user))] * free
+    t0 = pd.Timestamp(start_day).value // 1_000_000 - BEIJING_MS
+    return np.round(t0 + s_start[session] + offset * squeeze[user]).astype(np.int64)
+
+
+def _contexts(first, video):
+    """`[N, CONTEXT]`: the videos of the session's earlier rows, most recent first, -1
+    where none (rows of a session consecutive)."""
+    idx = np.arange(first.shape[0])
+    start = np.maximum.accumulate(np.where(first, idx, 0))
+    src = idx[:, None] - np.arange(1, CONTEXT + 1)[None, :]
+    return np.where(src >= start[:, None], video[np.maximum(src, 0)], -1)
+
+
+def _calibrate(model: ResponseModel, ui, vi, ci) -> np.ndarray:
+    """`[7]` biases whose expected rates over the rows `(ui, vi, ci)` are the targets."""
+    lg, dur = model.logits(ui, vi, ci)
+    n = ui.shape[0]
+    bias = np.zeros(7)
+    click = lg["is_click"]
+    bias[0] = _bisect(lambda b: _sigmoid(b + click).sum(), TARGET_RATES["is_click"] * n)
+    p_click = _sigmoid(bias[0] + click)
+    for j, (name, _) in enumerate(_BINARY[1:], 1):
+        # gated signals: calibrated on P(click), so the model's rates are exact
+        w = p_click if name in _GATED else 1.0
+        x = lg[name]
+        bias[j] = _bisect(lambda b, w=w, x=x: (w * _sigmoid(b + x)).sum(), TARGET_RATES[name] * n)
+    scale, x = _WATCH_MAX * p_click * dur, lg["watch"]
+    bias[6] = _bisect(
+        lambda b: (scale * _expected_sigmoid(b + x, _WATCH_NOISE)).sum(), TARGET_PLAY_TIME_MS * n
+    )
+    return bias
+
+
+_TAB_P = np.array([0.02, 0.55, 0.25, 0.05, 0.04] + [0.01] * 9 + [0.0])
+_TAB_P = _TAB_P / _TAB_P.sum()
+
+
+def _draw(rng, model: ResponseModel, ui, vi, ci, times) -> pd.DataFrame:
+    """Log rows drawn from the model (every signal an independent draw), in time order."""
+    lg, dur = model.logits(ui, vi, ci)
+    b, n = model.bias, ui.shape[0]
+    click = (rng.random(n) < _sigmoid(b[0] + lg["is_click"])).astype(np.int64)
+    sig = {"is_click": click}
+    for j, (name, _) in enumerate(_BINARY[1:], 1):
+        p = _sigmoid(b[j] + lg[name]) * (click if name in _GATED else 1)
+        sig[name] = (rng.random(n) < p).astype(np.int64)
+    frac = _sigmoid(b[6] + lg["watch"] + _WATCH_NOISE * rng.normal(size=n))
+    play = np.round(click * _WATCH_MAX * dur * frac).astype(np.int64)
+    long_view = ((play >= np.minimum(dur, 18_000)) & (click == 1)).astype(np.int64)
+    profile = sig["is_follow"] | (rng.random(n) < 0.01 * click)
+    local = pd.to_datetime(times + BEIJING_MS, unit="ms")
+    df = pd.DataFrame(
+        {
+            "user_id": model.user_ids[ui],
+            "video_id": model.video_ids[vi],
+            "date": local.strftime("%Y%m%d").astype(np.int64),
+            "hourmin": (local.hour * 100).to_numpy().astype(np.int64),
+            "time_ms": times,
+            **sig,
+            "long_view": long_view,
+            "play_time_ms": play,
+            # a few rows log no duration, as KuaiRand's do
+            "duration_ms": np.where(rng.random(n) < _ZERO_DURATION_ROWS, 0, dur.astype(np.int64)),
+            "profile_stay_time": np.where(profile == 1, rng.integers(1, 120, n), 0),
+            "comment_stay_time": np.where(sig["is_comment"] == 1, rng.integers(1_000, 6e4, n), 0),
+            "is_profile_enter": profile.astype(np.int64),
+            "is_rand": 0,
+            "tab": rng.choice(15, n, p=_TAB_P),
+        }
+    )[list(LOG_COLUMNS)]
+    return df.iloc[np.lexsort((np.arange(n), times))].reset_index(drop=True)
+
+
+def _session_rows(rng, activity, rows):
+    """Users and session starts of `rows` rows (`[N]` each), grouped by user."""
+    users = activity.shape[0]
+    if rows >= users:
+        counts = rng.multinomial(rows - users, activity / activity.sum()) + 1
+    else:
+        counts = rng.multinomial(rows, activity / activity.sum())
+    return _sessions(rng, counts)
 
 
 def generate(cfg: SynthConfig):
@@ -389,209 +621,129 @@ def generate(cfg: SynthConfig):
     """
     rng = np.random.default_rng(cfg.seed)
     users, z, activity = _users(rng, cfg)
-    basic, y, traits, pop = _videos(rng, cfg)
+    basic, y, traits, tag, pop = _videos(rng, cfg)
+    n1, n2, n_rand = cfg.rows, cfg.rows // 4, max(cfg.rows // 10, 1)
+    # the standard logs' two parts: other sessions of the same users over the same days
+    u1, f1 = _session_rows(rng, activity, n1)
+    u2, f2 = _session_rows(rng, activity, n2)
+    u_std, f_std = np.r_[u1, u2], np.r_[f1, f2]
+    t_std = _timeline(rng, u_std, f_std, "2022-04-08", 14)
+    aff = z @ y.T / np.sqrt(LATENT)
+    v_std = _choose_videos(rng, 0.8 * aff + 0.4 * traits[:, 0][None, :] + np.log(pop), u_std)
+    c_std = _contexts(f_std, v_std)
+    u_r, f_r = _session_rows(rng, activity, n_rand)
+    t_r = _timeline(rng, u_r, f_r, "2022-04-22", 17)
+    v_r = rng.integers(0, cfg.videos, u_r.shape[0])
+    c_r = _contexts(f_r, v_r)
+
     model = ResponseModel(
         user_ids=users["user_id"].to_numpy(),
         z=z,
         video_ids=basic["video_id"].to_numpy(),
         y=y,
         traits=traits,
+        tag=tag,
         bias=np.zeros(7),
+        log_context=np.zeros((0, CONTEXT), np.int64),
     )
-    # the standard logs (both parts), then the random-exposure log
-    n1, n2, n_rand = cfg.rows, cfg.rows // 4, max(cfg.rows // 10, 1)
-    ui_std = np.concatenate([_rows_per_user(rng, activity, n1), _rows_per_user(rng, activity, n2)])
-    aff = z @ y.T / np.sqrt(LATENT)
-    pref = 0.8 * aff + 0.4 * traits[:, 0][None, :] + np.log(pop)[None, :]
-    vi_std = _choose_videos(rng, pref, ui_std)
-    ui_rand = np.sort(rng.integers(0, cfg.users, n_rand))
-    vi_rand = rng.integers(0, cfg.videos, n_rand)
+    # calibrated on the rows the protocol keeps: part1's rows of its most viewed videos
+    views = np.bincount(v_std[:n1], minlength=cfg.videos)
+    top = np.lexsort((np.arange(cfg.videos), -views))[:CANDIDATES]
+    kept = np.isin(v_std[:n1], top)
+    bias = _calibrate(model, u1[kept], v_std[:n1][kept], c_std[:n1][kept])
+    order1 = np.lexsort((np.arange(n1), t_std[:n1]))  # part1's file order
+    ctx = c_std[:n1][order1]
+    context = np.where(ctx >= 0, model.video_ids[np.maximum(ctx, 0)], -1)
+    model = ResponseModel(**{**model.__dict__, "bias": bias, "log_context": context})
 
-    lg_std, dur_std = model.logits(ui_std, vi_std)
-    n_std = ui_std.shape[0]
-    bias = np.zeros(7)
-    bias[0] = _bisect_bias(lg_std["is_click"], PURE_RATES["is_click"] * n_std)
-    p_click = _sigmoid(bias[0] + lg_std["is_click"])
-    clicked = _exact_count_sample(
-        rng, bias[0] + lg_std["is_click"], round(PURE_RATES["is_click"] * n_std)
-    )
-    std_signals = {"is_click": clicked}
-    for j, (name, _) in enumerate(_BINARY[1:], 1):
-        k = round(PURE_RATES[name] * n_std)
-        if name in _GATED:
-            # calibrated on P(click) rather than the drawn clicks: the model is exact
-            bias[j] = _bisect_bias_weighted(lg_std[name], p_click, k)
-            sel = np.flatnonzero(clicked)
-            out = np.zeros(n_std, np.int64)
-            out[sel] = _exact_count_sample(rng, bias[j] + lg_std[name][sel], k)
-        else:
-            bias[j] = _bisect_bias(lg_std[name], k)
-            out = _exact_count_sample(rng, bias[j] + lg_std[name], k)
-        std_signals[name] = out
-    watch_mean = dur_std * p_click
-    bias[6] = _bisect_watch(lg_std["watch"], watch_mean, MEAN_PLAY_TIME_MS * n_std)
-    model = ResponseModel(**{**model.__dict__, "bias": bias})
-
-    def draw(ui, vi, signals=None):
-        lg, dur = model.logits(ui, vi)
-        n = ui.shape[0]
-        if signals is None:  # random log: plain Bernoulli draws from the same model
-            signals = {}
-            click = (rng.random(n) < _sigmoid(bias[0] + lg["is_click"])).astype(np.int64)
-            signals["is_click"] = click
-            for j, (name, _) in enumerate(_BINARY[1:], 1):
-                p = _sigmoid(bias[j] + lg[name]) * (click if name in _GATED else 1)
-                signals[name] = (rng.random(n) < p).astype(np.int64)
-        frac = _sigmoid(bias[6] + lg["watch"] + _WATCH_NOISE * rng.normal(size=n))
-        play = np.round(signals["is_click"] * dur * frac).astype(np.int64)
-        long_view = ((play >= np.minimum(dur, 18_000)) & (signals["is_click"] == 1)).astype(
-            np.int64
-        )
-        profile = signals["is_follow"] | (rng.random(n) < 0.01 * signals["is_click"])
-        comment_stay = np.where(signals["is_comment"] == 1, rng.integers(1_000, 60_000, n), 0)
-        return pd.DataFrame(
-            {
-                "user_id": model.user_ids[ui],
-                "video_id": model.video_ids[vi],
-                **{k: None for k in ("date", "hourmin", "time_ms")},
-                **{
-                    k: signals[k]
-                    for k in (
-                        "is_click",
-                        "is_like",
-                        "is_follow",
-                        "is_comment",
-                        "is_forward",
-                        "is_hate",
-                    )
-                },
-                "long_view": long_view,
-                "play_time_ms": play,
-                "duration_ms": dur.astype(np.int64),
-                "profile_stay_time": np.where(profile == 1, rng.integers(1, 120, n), 0),
-                "comment_stay_time": comment_stay,
-                "is_profile_enter": profile.astype(np.int64),
-                "is_rand": 0,
-                "tab": rng.choice(15, n, p=_TAB_P),
-            }
-        )
-
-    std = draw(ui_std, vi_std, std_signals)
-    date, hourmin, t = _times(rng, ui_std[:n1], "2022-04-08", 14)
-    # rows are grouped by user already (`_rows_per_user`); times increase within a user
-    part1 = std.iloc[:n1].reset_index(drop=True)
-    part1["date"], part1["hourmin"], part1["time_ms"] = date, hourmin, t
-    part2 = std.iloc[n1:].reset_index(drop=True)
-    part2["date"], part2["hourmin"], part2["time_ms"] = _times(rng, ui_std[n1:], "2022-04-08", 14)
-    rand = draw(ui_rand, vi_rand)
-    rand["date"], rand["hourmin"], rand["time_ms"] = _times(rng, ui_rand, "2022-04-22", 17)
+    part1 = _draw(rng, model, u1, v_std[:n1], c_std[:n1], t_std[:n1])
+    part2 = _draw(rng, model, u2, v_std[n1:], c_std[n1:], t_std[n1:])
+    rand = _draw(rng, model, u_r, v_r, c_r, t_r)
     rand["is_rand"] = 1
-
     frames = {
-        FILES["standard"][0]: part1[list(LOG_COLUMNS)],
-        FILES["standard"][1]: part2[list(LOG_COLUMNS)],
-        FILES["random"]: rand[list(LOG_COLUMNS)],
+        FILES["standard"][0]: part1,
+        FILES["standard"][1]: part2,
+        FILES["random"]: rand,
         FILES["user"]: users,
         FILES["video_basic"]: basic,
     }
-    stats = _statistics(rng, pd.concat([part1, part2]), basic["video_id"].to_numpy())
+    stats = _statistics(rng, pd.concat([part1, part2]), model.video_ids)
     thirds = np.array_split(np.arange(len(stats)), 3)
     for name, idx in zip(FILES["video_statistic"], thirds, strict=True):
         frames[name] = stats.iloc[idx].reset_index(drop=True)
     return frames, model
 
 
-def _bisect_bias_weighted(logit, weight, target_sum, lo=-30.0, hi=30.0, iters=60):
-    """The bias `b` with `sum(weight * sigmoid(b + logit)) = target_sum`."""
-    for _ in range(iters):
-        mid = 0.5 * (lo + hi)
-        if (weight * _sigmoid(mid + logit)).sum() < target_sum:
-            lo = mid
-        else:
-            hi = mid
-    return 0.5 * (lo + hi)
+def _thin(rng, counts, p):
+    return rng.binomial(counts, p)
 
 
-def _bisect_watch(logit, scale, target_sum, lo=-30.0, hi=30.0, iters=60):
-    """The bias `b` with `sum(scale * E[sigmoid(b + logit + noise)]) = target_sum`."""
-    for _ in range(iters):
-        mid = 0.5 * (lo + hi)
-        if (scale * _expected_sigmoid(mid + logit, _WATCH_NOISE)).sum() < target_sum:
-            lo = mid
-        else:
-            hi = mid
-    return 0.5 * (lo + hi)
-
-
-_TAB_P = np.array([0.02, 0.55, 0.25, 0.05, 0.04] + [0.01] * 9 + [0.0])
-_TAB_P = _TAB_P / _TAB_P.sum()
-
-# The platform-wide statistics cover far more users than the log; scale the log's sums.
-_STAT_SCALE = 37
+def _events(rng, log: pd.DataFrame) -> dict:
+    """Per-row counts of the events KuaiRand's statistics aggregate, by column stem."""
+    click, play = log["is_click"].to_numpy(), log["play_time_ms"].to_numpy()
+    dur = log["duration_ms"].to_numpy()
+    like, comment = log["is_like"].to_numpy(), log["is_comment"].to_numpy()
+    direct = _thin(rng, comment, 0.8)
+    share = log["is_forward"].to_numpy()
+    share_all = share + _thin(rng, click, 0.001)
+    collect = _thin(rng, like, 0.3)
+    return {
+        "show": np.ones_like(click),
+        "play": click,
+        "complete_play": ((dur > 0) & (play >= dur)).astype(np.int64),
+        "valid_play": click,
+        "long_time_play": log["long_view"].to_numpy(),
+        "short_time_play": ((play > 0) & (play < np.minimum(3_000, dur))).astype(np.int64),
+        "like": like,
+        "click_like": _thin(rng, like, 0.1),
+        "double_click": _thin(rng, like, 0.9),
+        "cancel_like": _thin(rng, like, 0.05),
+        "comment": comment,
+        "direct_comment": direct,
+        "reply_comment": comment - direct,
+        "delete_comment": _thin(rng, comment, 0.05),
+        "comment_like": _thin(rng, comment, 0.3),
+        "follow": log["is_follow"].to_numpy(),
+        "cancel_follow": _thin(rng, log["is_follow"].to_numpy(), 0.1),
+        "share": share,
+        "download": _thin(rng, click, 0.002),
+        "report": _thin(rng, log["is_hate"].to_numpy(), 0.2),
+        "reduce_similar": log["is_hate"].to_numpy(),
+        "collect": collect,
+        "cancel_collect": _thin(rng, collect, 0.1),
+        "share_all": share_all,
+        "outsite_share_all": _thin(rng, share_all, 0.3),
+    }
 
 
 def _statistics(rng, log: pd.DataFrame, video_ids: np.ndarray) -> pd.DataFrame:
-    """Per-video aggregate statistics (KuaiRand's columns), from the standard logs."""
-    g = log.groupby("video_id")
-    agg = pd.DataFrame(index=pd.Index(video_ids, name="video_id"))
-    agg["show_cnt"] = g.size()
-    agg["show_user_num"] = g["user_id"].nunique()
-    agg["play_cnt"] = g["is_click"].sum()
-    agg["play_user_num"] = log[log["is_click"] == 1].groupby("video_id")["user_id"].nunique()
-    agg["play_duration"] = g["play_time_ms"].sum()
-    agg["complete_play_cnt"] = (
-        (log["play_time_ms"] >= log["duration_ms"]).groupby(log["video_id"]).sum()
-    )
-    agg["valid_play_cnt"] = (log["play_time_ms"] >= 7_000).groupby(log["video_id"]).sum()
-    agg["long_time_play_cnt"] = g["long_view"].sum()
-    agg["short_time_play_cnt"] = (
-        ((log["play_time_ms"] > 0) & (log["play_time_ms"] < 3_000)).groupby(log["video_id"]).sum()
-    )
-    for col, name in (
-        ("is_like", "like"),
-        ("is_comment", "comment"),
-        ("is_follow", "follow"),
-        ("is_forward", "share"),
-        ("is_hate", "reduce_similar"),
-    ):
-        agg[f"{name}_cnt"] = g[col].sum()
-        agg[f"{name}_user_num"] = log[log[col] == 1].groupby("video_id")["user_id"].nunique()
-    agg = agg.fillna(0) * _STAT_SCALE
-    agg = agg.round().astype(np.int64)
-    agg["play_progress"] = (
-        (g["play_time_ms"].sum() / g["duration_ms"].sum()).reindex(video_ids).fillna(0).round(4)
-    )
-    agg["report_cnt"] = rng.poisson(0.2 * agg["reduce_similar_cnt"] + 0.1)
-    agg["collect_cnt"] = rng.poisson(0.3 * agg["like_cnt"] + 0.1)
-    agg["counts"] = agg["show_cnt"]
-    agg = agg.reset_index()
-    front = [
-        "video_id",
-        "counts",
-        "show_cnt",
-        "show_user_num",
-        "play_cnt",
-        "play_user_num",
-        "play_duration",
-        "complete_play_cnt",
-        "valid_play_cnt",
-        "long_time_play_cnt",
-        "short_time_play_cnt",
-        "play_progress",
-        "like_cnt",
-        "like_user_num",
-        "comment_cnt",
-        "comment_user_num",
-        "follow_cnt",
-        "follow_user_num",
-        "share_cnt",
-        "share_user_num",
-        "report_cnt",
-        "reduce_similar_cnt",
-        "reduce_similar_user_num",
-        "collect_cnt",
-    ]
-    return agg[front]
+    """Per-video statistics as KuaiRand's: each column the average, over the (day, tab)
+    pairs the video was shown in, of that pair's count (`counts`: the pairs), scaled to
+    the platform; `play_progress` the average of the pairs' play / duration."""
+    events = _events(rng, log)
+    keys = ["video_id", "date", "tab", "user_id"]
+    ev = pd.DataFrame({k: log[k].to_numpy() for k in keys})
+    ev["play_duration"] = log["play_time_ms"].to_numpy()
+    ev["duration"] = log["duration_ms"].to_numpy()
+    ev["comment_stay_duration"] = log["comment_stay_time"].to_numpy()
+    for stem, x in events.items():
+        ev[stem] = x
+    per_user = ev.groupby(keys).sum()
+    users = (per_user[list(events)] > 0).add_suffix("_user_num")
+    per_user = pd.concat([per_user, users], axis=1)
+    per_pair = per_user.groupby(level=["video_id", "date", "tab"]).sum()
+    progress = per_pair["play_duration"] / per_pair["duration"].where(per_pair["duration"] > 0)
+    for stem in events:
+        per_pair[stem + "_cnt"] = per_pair[stem]
+    per_pair = per_pair * _STAT_SCALE
+    per_pair["play_progress"] = progress.fillna(0.0)
+    by_video = per_pair.groupby(level="video_id")
+    out = pd.DataFrame(index=pd.Index(video_ids, name="video_id"))
+    out["counts"] = by_video.size().reindex(video_ids).fillna(0).astype(np.int64)
+    means = by_video.mean().reindex(video_ids).fillna(0.0)
+    for col in STAT_COLUMNS:
+        out[col] = means[col].round(3).astype(np.float64)
+    return out.reset_index()
 
 
 def write(cfg: SynthConfig, out: str) -> ResponseModel:
