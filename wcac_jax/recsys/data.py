@@ -74,6 +74,18 @@ USER_CATEGORICAL = (
     "register_days_range",
 )
 USER_ONEHOT = tuple(f"onehot_feat{j}" for j in range(18))
+# the public KuaiRand-27K pipeline's six label-encoded user features (`--protocol tscac`)
+USER_CATEGORICAL_TSCAC = (
+    "user_active_degree",
+    "is_live_streamer",
+    "is_video_author",
+    "follow_user_num_range",
+    "fans_user_num_range",
+    "register_days_range",
+)
+PROTOCOLS = ("default", "tscac")
+TSCAC_STD_EPS = 1e-3  # added to every standard deviation there
+TSCAC_MUSIC_TYPE_FILL = 2.0  # its value for a missing music_type
 VIDEO_BASIC_COLUMNS = ("video_id", "video_duration", "music_type", "tag")
 VIDEO_STAT_COLUMNS = ("video_id", "play_user_num", "play_duration", "like_cnt")
 VIDEO_FEATURES = (
@@ -134,6 +146,11 @@ class Protocol:
       action_features: `[C, 6]` candidate features z-normalised across candidates.
     Ids (host numpy arrays, int64): user_ids `[U]` of `user_table`'s rows; video_ids
       `[C]` of the candidates, most viewed first.
+    log_row: `[n]` int32, each row's data row (0-based) in the log file, or None.
+    The test split's normalisation (`for_test_rows`), None where it is the training one
+    (the default protocol): test_user_table `[U, 24]`, test_hist_mean, test_hist_std
+    `[H, 6]`.
+    protocol: `"default"` or `"tscac"` (`load`).
     """
 
     user_index: chex.Array
@@ -152,6 +169,11 @@ class Protocol:
     # second Protocol, which arrays cannot answer (a second run in one process failed)
     user_ids: np.ndarray
     video_ids: np.ndarray
+    log_row: chex.Array | None = None
+    test_user_table: chex.Array | None = None
+    test_hist_mean: chex.Array | None = None
+    test_hist_std: chex.Array | None = None
+    protocol: str = struct.field(pytree_node=False, default="default")
 
     @property
     def n_rows(self) -> int:
@@ -168,6 +190,27 @@ class Protocol:
     @property
     def n_episodes(self) -> int:
         return int(np.asarray(self.done).sum())
+
+    @property
+    def behaviour_rows(self) -> tuple[int, int]:
+        """`(start, stop)`: the rows the behaviour model (Behavior-Clone) is fitted on:
+        the training rows, or under `protocol="tscac"` the test rows, as there."""
+        if self.protocol == "tscac":
+            return self.n_train, self.n_rows
+        return 0, self.n_train
+
+
+def for_test_rows(data: Protocol) -> Protocol:
+    """The protocol with the test split's normalisation of the user and history blocks,
+    for computing states of test rows (the same `data` unless `protocol="tscac"`,
+    which normalises each split by its own rows)."""
+    if data.test_user_table is None:
+        return data
+    return data.replace(
+        user_table=data.test_user_table,
+        hist_mean=data.test_hist_mean,
+        hist_std=data.test_hist_std,
+    )
 
 
 def states(data: Protocol, rows: chex.Array) -> chex.Array:
@@ -223,7 +266,7 @@ def by_user_in_time(user_id: np.ndarray, time_ms: np.ndarray) -> np.ndarray:
     return np.lexsort((np.arange(user_id.shape[0]), time_ms, first_seen))
 
 
-def _top_videos(path: str, n: int, chunksize: int) -> np.ndarray:
+def _top_videos(path: str, n: int, chunksize: int, protocol: str = "default") -> np.ndarray:
     counts = None
     for chunk in kuairand.chunks(path, ("video_id",), chunksize):
         c = kuairand.integers(chunk, "video_id", path, low=0).value_counts()
@@ -232,32 +275,67 @@ def _top_videos(path: str, n: int, chunksize: int) -> np.ndarray:
         raise DataError(f"{path}: no rows")
     if len(counts) < n:
         raise DataError(f"{path}: column 'video_id': only {len(counts)} videos, need {n}")
-    # most viewed first; ties by video_id
-    order = np.lexsort((counts.index.to_numpy(), -counts.to_numpy()))
+    if protocol == "tscac":
+        # as there: numpy's default argsort of the counts in video_id order, reversed
+        counts = counts.sort_index()
+        order = np.argsort(counts.to_numpy())[::-1]
+    else:  # most viewed first; ties by video_id
+        order = np.lexsort((counts.index.to_numpy(), -counts.to_numpy()))
     return counts.index.to_numpy()[order[:n]].astype(np.int64)
 
 
-def _user_table(directory: str, layout: Layout, user_ids: np.ndarray) -> np.ndarray:
+def _user_frame(directory: str, layout: Layout, user_ids: np.ndarray, categorical):
+    """The user features' rows of the log's users, in `user_ids` order (the index is the
+    data row), and the file's path."""
     path = kuairand.path(directory, layout.user)
-    df = kuairand.read(path, ("user_id", *USER_CATEGORICAL, *USER_ONEHOT))
+    df = kuairand.read(path, ("user_id", *categorical, *USER_ONEHOT))
     df["user_id"] = kuairand.integers(df, "user_id", path, low=0)
     df = df.drop_duplicates("user_id")
     pos = pd.Index(df["user_id"]).get_indexer(user_ids)
     if (pos < 0).any():
         missing = user_ids[np.argmax(pos < 0)]
         raise DataError(f"{path}: column 'user_id': no row for user {missing} of the log")
-    df = df.iloc[pos]  # the log's users, in `user_ids` order; the index is the data row
-    what = "the log's users"
+    df = df.iloc[pos]
+    for col in categorical:
+        kuairand.not_all_missing(df[col], path, col, "the log's users")
+    return df, path
+
+
+def _onehot(df: pd.DataFrame, path: str, minus_124_missing: bool) -> list[np.ndarray]:
     cols = []
-    for col in USER_CATEGORICAL:  # label-encoded; the missing value is a label of its own
-        kuairand.not_all_missing(df[col], path, col, what)
-        cols.append(pd.factorize(df[col].astype(str), sort=True)[0].astype(np.float64))
     for col in USER_ONEHOT:
         x = kuairand.features(df, col, path)
-        x[x == -124] = np.nan
-        kuairand.not_all_missing(x, path, col, what)
+        if minus_124_missing:
+            x[x == -124] = np.nan
+        kuairand.not_all_missing(x, path, col, "the log's users")
         cols.append(x.to_numpy(np.float64, copy=True))
-    return np.stack(cols, axis=1)
+    return cols
+
+
+def _user_table(directory: str, layout: Layout, user_ids: np.ndarray) -> np.ndarray:
+    df, path = _user_frame(directory, layout, user_ids, USER_CATEGORICAL)
+    # label-encoded in sorted order; the missing value is a label of its own
+    cols = [
+        pd.factorize(df[col].astype(str), sort=True)[0].astype(np.float64)
+        for col in USER_CATEGORICAL
+    ]
+    return np.stack(cols + _onehot(df, path, minus_124_missing=True), axis=1)
+
+
+def _user_table_tscac(
+    directory: str, layout: Layout, user_ids: np.ndarray, user_index: np.ndarray
+) -> np.ndarray:
+    """`[U, 24]` as the public pipeline builds it: `USER_CATEGORICAL_TSCAC` each coded
+    by the rank of its value's frequency over the log's rows (the most frequent 0), the
+    onehot features as they are (-124 included); missing values NaN."""
+    df, path = _user_frame(directory, layout, user_ids, USER_CATEGORICAL_TSCAC)
+    cols = []
+    for col in USER_CATEGORICAL_TSCAC:
+        per_row = df[col].iloc[user_index].reset_index(drop=True)
+        counts = per_row.value_counts()
+        code = dict(zip(counts.index, range(len(counts)), strict=True))
+        cols.append(df[col].map(code).to_numpy(np.float64))
+    return np.stack(cols + _onehot(df, path, minus_124_missing=False), axis=1)
 
 
 def _candidate_rows(frames, path: str, video_ids: np.ndarray) -> pd.DataFrame:
@@ -302,8 +380,7 @@ def _video_table(directory: str, layout: Layout, video_ids: np.ndarray) -> np.nd
         kuairand.not_all_missing(stat[col], paths[stat["part"].iloc[0]], col, what)
     stat = stat.set_index("video_id")
     table = pd.concat([basic.reindex(video_ids), stat.reindex(video_ids)], axis=1)
-    x = table[list(VIDEO_FEATURES)].to_numpy(np.float64)
-    return np.where(np.isnan(x), np.nanmean(x, axis=0), x)
+    return table[list(VIDEO_FEATURES)].to_numpy(np.float64)  # NaN where missing
 
 
 def _zscore_stats(x: np.ndarray, axis=0):
@@ -325,8 +402,25 @@ def _histories(user_index: np.ndarray, action: np.ndarray, h: int) -> np.ndarray
     return np.where(j[None, :] < pos[:, None], action[np.maximum(src, 0)], -1).astype(np.int32)
 
 
+def _ring_histories(user_index: np.ndarray, action: np.ndarray, h: int) -> np.ndarray:
+    """`[n, H]` the public pipeline's history block: a ring of `H` slots per run of one
+    user's consecutive rows, the row's own video written first (slot `pos mod H`, `pos`
+    the row's place in the run), so each slot holds the latest video of its residue and
+    the current one is among them; -1 where none yet."""
+    n = user_index.shape[0]
+    i = np.arange(n)
+    start = np.r_[True, user_index[1:] != user_index[:-1]]
+    run_start = np.maximum.accumulate(np.where(start, i, 0))
+    pos = (i - run_start)[:, None]
+    k = pos - (pos - np.arange(h)[None, :]) % max(h, 1)
+    return np.where(k >= 0, action[run_start[:, None] + np.maximum(k, 0)], -1).astype(np.int32)
+
+
 def load(
-    directory: str, config: ProtocolConfig = ProtocolConfig(), version: str | None = None
+    directory: str,
+    config: ProtocolConfig = ProtocolConfig(),
+    version: str | None = None,
+    protocol: str = "default",
 ) -> Protocol:
     """Reads a KuaiRand directory and builds the protocol's offline transitions.
 
@@ -335,55 +429,117 @@ def load(
       config: the protocol's sizes.
       version: `"27k"`, `"1k"` or `"pure"`; by default the layout whose file names the
         directory holds.
+      protocol: `"default"`, this module's protocol, or `"tscac"`, the public
+        KuaiRand-27K pipeline's construction detail for detail (`_tscac_tables`,
+        `_ring_histories`; docs/recsys.md lists the differences).
 
     Raises:
       DataError: a file or column is missing, or a value is malformed.
+      ValueError: an unknown `protocol`.
     """
+    if protocol not in PROTOCOLS:
+        raise ValueError(f"unknown protocol {protocol!r}; valid: {', '.join(PROTOCOLS)}")
     layout = kuairand.detect(directory, version)
     log_path = kuairand.path(directory, layout.log)
-    candidates = _top_videos(log_path, config.n_candidates, config.chunksize)
+    candidates = _top_videos(log_path, config.n_candidates, config.chunksize, protocol)
     log = read_log(log_path, config.chunksize, keep_videos=candidates)
     n = len(log)
     n_train = int(round(n * config.train_fraction))
     if not 0 < n_train < n:
         raise DataError(f"{log_path}: {n} kept rows cannot be split {config.train_fraction:.4f}")
-    order = by_user_in_time(log["user_id"].to_numpy(np.int64), log["time_ms"].to_numpy(np.int64))
-    log = log.iloc[order]
+    if protocol == "default":  # tscac keeps the file's order
+        user, time_ms = log["user_id"].to_numpy(np.int64), log["time_ms"].to_numpy(np.int64)
+        log = log.iloc[by_user_in_time(user, time_ms)]
 
     user_ids, user_index = np.unique(log["user_id"].to_numpy(np.int64), return_inverse=True)
     action = pd.Index(candidates).get_indexer(log["video_id"].to_numpy(np.int64))
     reward = log[list(REWARD_COLUMNS)].to_numpy(np.float64)
     reward[:, -1] /= 10_000.0
     done = np.r_[user_index[1:] != user_index[:-1], True].astype(np.float32)
-    history = _histories(user_index, action, config.history)
+    histories = _histories if protocol == "default" else _ring_histories
+    history = histories(user_index, action, config.history)
+    video_raw = _video_table(directory, layout, candidates)  # NaN where missing
+    if protocol == "default":
+        user_raw = _user_table(directory, layout, user_ids)
+        tables = _default_tables(user_raw, user_index, video_raw, history, n_train)
+    else:
+        user_raw = _user_table_tscac(directory, layout, user_ids, user_index)
+        tables = _tscac_tables(user_raw, user_index, video_raw, history, n_train)
+    return Protocol(
+        user_index=jnp.asarray(user_index, jnp.int32),
+        action=jnp.asarray(action, jnp.int32),
+        reward=_f32(reward),
+        done=_f32(done),
+        history=jnp.asarray(history),
+        n_train=n_train,
+        user_ids=user_ids,
+        video_ids=candidates,
+        log_row=jnp.asarray(log.index.to_numpy(), jnp.int32),
+        protocol=protocol,
+        **tables,
+    )
 
-    user_raw = _user_table(directory, layout, user_ids)
+
+def _f32(x):
+    return jnp.asarray(x, jnp.float32)
+
+
+def _default_tables(user_raw, user_index, video_raw, history, n_train) -> dict:
+    """This module's normalisation: missing values the training mean (candidates: the
+    candidates' mean), every block z-scored by the training rows."""
     u_mean, u_std = _zscore_stats(user_raw[user_index[:n_train]])
     user_raw = np.where(np.isnan(user_raw), u_mean, user_raw)
-    video_raw = _video_table(directory, layout, candidates)
+    video_raw = np.where(np.isnan(video_raw), np.nanmean(video_raw, axis=0), video_raw)
     cand_mean, cand_std = _zscore_stats(video_raw)
     hist_train = history[:n_train]
     hist_raw = np.where(hist_train[..., None] >= 0, video_raw[np.maximum(hist_train, 0)], 0.0)
     h_mean, h_std = _zscore_stats(hist_raw)
     # the candidate block is one constant vector: its training z-score is 0 everywhere
-    cand_flat = video_raw.reshape(-1)
-    cand_state = np.zeros_like(cand_flat)
-    f32 = lambda x: jnp.asarray(x, jnp.float32)
-    return Protocol(
-        user_index=jnp.asarray(user_index, jnp.int32),
-        action=jnp.asarray(action, jnp.int32),
-        reward=f32(reward),
-        done=f32(done),
-        history=jnp.asarray(history),
-        user_table=f32((user_raw - u_mean) / u_std),
-        video_raw=f32(video_raw),
-        cand_state=f32(cand_state),
-        hist_mean=f32(h_mean),
-        hist_std=f32(h_std),
-        action_features=f32((video_raw - cand_mean) / cand_std),
-        n_train=n_train,
-        user_ids=user_ids,
-        video_ids=candidates,
+    cand_state = np.zeros_like(video_raw.reshape(-1))
+    return dict(
+        user_table=_f32((user_raw - u_mean) / u_std),
+        video_raw=_f32(video_raw),
+        cand_state=_f32(cand_state),
+        hist_mean=_f32(h_mean),
+        hist_std=_f32(h_std),
+        action_features=_f32((video_raw - cand_mean) / cand_std),
+    )
+
+
+def _tscac_tables(user_raw, user_index, video_raw, history, n_train) -> dict:
+    """The public pipeline's normalisation: a missing music_type 2, every other missing
+    value 0 (in raw units), then each split's states z-scored by that split's own rows,
+    `TSCAC_STD_EPS` added to every standard deviation. The candidate block is constant,
+    so 0 after that too; the critics' candidate features are z-scored across candidates
+    as in the default protocol."""
+    video_raw = video_raw.copy()
+    music = VIDEO_FEATURES.index("music_type")
+    video_raw[:, music] = np.where(
+        np.isnan(video_raw[:, music]), TSCAC_MUSIC_TYPE_FILL, video_raw[:, music]
+    )
+    video_raw = np.nan_to_num(video_raw)
+    user_raw = np.nan_to_num(user_raw)
+
+    def split(rows):
+        u = user_raw[user_index[rows]]
+        h = history[rows]
+        h = np.where(h[..., None] >= 0, video_raw[np.maximum(h, 0)], 0.0)
+        table = (user_raw - u.mean(0)) / (u.std(0) + TSCAC_STD_EPS)
+        return _f32(table), _f32(h.mean(0)), _f32(h.std(0) + TSCAC_STD_EPS)
+
+    train_user, train_mean, train_std = split(slice(0, n_train))
+    test_user, test_mean, test_std = split(slice(n_train, None))
+    cand_mean, cand_std = _zscore_stats(video_raw)
+    return dict(
+        user_table=train_user,
+        video_raw=_f32(video_raw),
+        cand_state=_f32(np.zeros(video_raw.size)),
+        hist_mean=train_mean,
+        hist_std=train_std,
+        action_features=_f32((video_raw - cand_mean) / cand_std),
+        test_user_table=test_user,
+        test_hist_mean=test_mean,
+        test_hist_std=test_std,
     )
 
 
@@ -411,13 +567,20 @@ def main(argv=None) -> int:
         default=ProtocolConfig.history,
         help="H, previously viewed videos in the state",
     )
+    parser.add_argument(
+        "--protocol",
+        choices=PROTOCOLS,
+        default="default",
+        help="the state and row construction (default: this project's; tscac: the public "
+        "KuaiRand-27K pipeline's)",
+    )
     args = parser.parse_args(argv)
     try:
         config = ProtocolConfig(n_candidates=args.candidates, history=args.history)
     except ValueError as err:
         parser.error(str(err))
     try:
-        data = load(args.directory, config, args.version)
+        data = load(args.directory, config, args.version, args.protocol)
     except DataError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2
