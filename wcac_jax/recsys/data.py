@@ -19,6 +19,13 @@
 - an episode is one user's rows (`done` where the next row is another user's), with
   `gamma = 0.99` left to the learner.
 
+That is the default protocol. `load(..., protocol="tscac")` (`--protocol tscac`) builds
+the same arrays as the public KuaiRand-27K pipeline does instead: rows in file order
+(episodes end where consecutive rows change user), `is_live_streamer` in place of
+`friend_user_num_range`, the history ring that holds the current video, missing values 0,
+each split normalised by its own rows (`for_test_rows`), the behaviour model fitted on the
+test rows (`Protocol.behaviour_rows`); docs/recsys.md lists every difference.
+
 The 6 label-encoded user features are our reading of "the 6 string/bucket features":
 `user_active_degree`, `is_video_author` and the four `*_range` buckets. Missing feature
 values (empty or NaN, and `-124`) are filled with the column's training mean, i.e. 0
