@@ -54,7 +54,7 @@ def _smoke(env, steps, batch):
     return traj
 
 
-@pytest.mark.parametrize("name", list(SIZES))
+@pytest.mark.parametrize("name", ["ant", "humanoid"])  # ant-2obj: ant's but for the reward
 def test_jitted_smoke_on_mujoco_engine(name):
     traj = _smoke(envs.make(name, episode_length=10), steps=25, batch=4)
     # a reset's contact forces read zero, as Gymnasium's

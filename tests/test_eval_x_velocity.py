@@ -23,16 +23,18 @@ def _evaluate(env, episodes, action):
 def _by_hand(env, episodes, action):
     venv = runtime.vectorize(env)
     state = venv.reset(jax.random.split(runtime.typed_key(jax.random.key(0)), episodes))
+    step = jax.jit(venv.step)
     alive, total, steps = np.ones(episodes), 0.0, 0.0
     for _ in range(env.episode_length):
-        state = venv.step(state, jnp.full((episodes, env.action_size), action))
+        state = step(state, jnp.full((episodes, env.action_size), action))
         total += float(np.sum(np.asarray(state.metrics["x_velocity"]) * alive))
         steps += alive.sum()
         alive = alive * (1.0 - np.asarray(state.done))
     return total / steps, steps / episodes
 
 
-@pytest.mark.parametrize("name", ["hopper", "halfcheetah", "swimmer", "ant"])
+# one task measuring qpos, one measuring a body position (the others are alike)
+@pytest.mark.parametrize("name", ["halfcheetah", "ant"])
 def test_mean_x_velocity_over_the_evaluation_steps(name):
     env = envs.make(name, episode_length=12)
     out = _evaluate(env, 3, 0.7)
