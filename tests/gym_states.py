@@ -36,20 +36,22 @@ def own_states(name, n_envs, n_steps, seed=0):
     """Float64 states `qpos [n, nq]`, `qvel [n, nv]` and float32 actions `[n, nu]`
     (`n = n_envs * n_steps`) of our environment `name` on MuJoCo's C engine: random-action
     rollouts without resets (an agent that fell keeps moving, so states past the health
-    limits appear), each step's exact start state and action."""
+    limits appear), each step's exact start state and action; actions uniform in the
+    task's action range (`action_bound`, 1 unless the task declares its own)."""
     import jax
 
     from wcac_jax import envs
 
     env = envs.make(name, engine="mujoco")
     nu = env.action_size
+    bound = getattr(env, "action_bound", 1.0)
 
     @jax.jit
     def rollout(key):
         start = jax.vmap(env.reset)(jax.random.split(key, n_envs))
 
         def body(state, k):
-            action = jax.random.uniform(k, (n_envs, nu), minval=-1.0, maxval=1.0)
+            action = jax.random.uniform(k, (n_envs, nu), minval=-bound, maxval=bound)
             return jax.vmap(env.step)(state, action), (state.pipeline_state.physics, action)
 
         return jax.lax.scan(body, start, jax.random.split(key, n_steps))[1]
@@ -75,14 +77,18 @@ def our_steps(name, qpos, qvel, actions):
     return jax.jit(jax.vmap(env.step))(start, jnp.asarray(actions))
 
 
-def mo_gymnasium_steps(gym_id, qpos, qvel, actions):
-    """One step of MO-Gymnasium's `gym_id` from each state: `(obs, reward, terminated)`."""
+def mo_gymnasium_steps(gym_id, qpos, qvel, actions, zero_warmstart=False):
+    """One step of MO-Gymnasium's `gym_id` from each state: `(obs, reward, terminated)`.
+    `zero_warmstart`: its constraint solver starts each step from zero, as our engine's
+    does, instead of from the previous (unrelated) test state's solution."""
     mo_gym = pytest.importorskip("mo_gymnasium")
     genv = mo_gym.make(gym_id)
     genv.reset(seed=0)
     obs, reward, term = [], [], []
     for q, v, a in zip(qpos, qvel, actions, strict=True):
         genv.unwrapped.set_state(q, v)
+        if zero_warmstart:
+            genv.unwrapped.data.qacc_warmstart[:] = 0.0
         o, r, t, _, _ = genv.step(np.asarray(a, np.float64))
         obs.append(o), reward.append(r), term.append(t)
     return np.array(obs), np.array(reward), np.array(term, np.float32)

@@ -120,6 +120,38 @@ def test_simplex_lattice():
     assert {tuple(r) for r in corners} >= {(1, 0, 0), (0, 1, 0), (0, 0, 1)}
 
 
+def test_preference_lattice():
+    # two objectives: the evenly spaced points of today, unchanged
+    for n in (1, 2, 5, 9):
+        np.testing.assert_array_equal(pareto.preference_lattice(2, n), pareto.simplex_lattice(2, n))
+    # three: the full lattice, every entry a multiple of 1/h, each point once
+    for h, size in [(1, 3), (2, 6), (3, 10), (4, 15)]:
+        assert pareto.lattice_size(3, h) == size
+        grid = pareto.preference_lattice(3, size)
+        assert grid.shape == (size, 3)
+        np.testing.assert_allclose(grid.sum(axis=1), 1.0)
+        np.testing.assert_allclose(grid * h, np.round(grid * h), atol=1e-12)
+        assert len({tuple(r) for r in np.round(grid * h).astype(int)}) == size
+    with pytest.raises(ValueError, match=r"9 preferences .* nearest that do: 6 or 10"):
+        pareto.preference_lattice(3, 9)
+    with pytest.raises(ValueError, match=r"nearest that do: 3 "):
+        pareto.preference_lattice(3, 2)
+    assert len(pareto.preference_lattice(3, 9, exact=False)) == 10  # the default's rule
+    assert pareto.preference_lattice(3, 1).shape == (1, 3)
+
+
+def test_hypervolume_3d_agrees_with_pymoo_on_front_sized_returns():
+    """Returns of the size of 500-step fronts, a reference below them (as the table's
+    morl-baselines convention), up to 60 points."""
+    hv_mod = pytest.importorskip("pymoo.indicators.hv")
+    rng = np.random.default_rng(7)
+    for n in (5, 21, 60):
+        pts = rng.uniform(-50, 2000, (n, 3))
+        ref = np.full(3, -100.0)
+        expected = hv_mod.HV(ref_point=-ref)(-pts)
+        assert pareto.hypervolume(pts, ref) == pytest.approx(expected, rel=1e-9)
+
+
 def test_errors():
     with pytest.raises(ValueError, match="NaN"):
         pareto.hypervolume([[1.0, np.nan]], [0, 0])

@@ -67,3 +67,33 @@ def test_notebook_executes_headlessly(runs):
     outputs = [o for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", [])]
     assert not [o for o in outputs if o.output_type == "error"]
     assert any("image/png" in o.get("data", {}) for o in outputs)
+
+
+def test_three_objective_front_as_pairwise_projections(tmp_path):
+    """A 3-objective front.json (made up here, no training) is drawn as its three
+    projections coloured by preference, and a simplex of the preferences."""
+    import numpy as np
+
+    from wcac_jax import pareto
+
+    prefs = pareto.preference_lattice(3, 10)
+    returns = 100 * prefs + np.random.default_rng(0).normal(0, 5, prefs.shape)
+    front = {
+        "env": "hopper",
+        "objective_names": ["forward_velocity", "height", "control"],
+        "hypervolume": 1.0,
+        "prefs": [
+            {"pref": p.tolist(), "return": r.tolist()} for p, r in zip(prefs, returns, strict=True)
+        ],
+    }
+    fig = plot.plot_front(front)
+    assert len(fig.axes) == 4
+    assert fig.axes[0].get_xlabel().startswith("forward_velocity")
+    assert fig.axes[2].get_ylabel().startswith("control")
+    filled = fig.axes[0].collections[1]  # the non-dominated points, coloured by preference
+    n = int(pareto.nondominated(returns).sum())
+    assert len(filled.get_offsets()) == n and n >= 3
+    np.testing.assert_allclose(filled.get_facecolors()[:, :3], prefs[pareto.nondominated(returns)])
+    _save_without_warnings(fig, tmp_path / "three.png")
+    with pytest.raises(ValueError, match="3 objectives"):
+        plot.plot_front_3d({"prefs": [{"pref": [1.0, 0.0], "return": [1.0, 2.0]}]})

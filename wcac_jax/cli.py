@@ -231,7 +231,11 @@ def build_parser() -> argparse.ArgumentParser:
         type=int,
         default=None,
         help=f"N preferences evenly spread on the simplex (default: {presets.DEFAULT_N_PREFS}, "
-        "or the paper's nine with --preset paper)",
+        "or the paper's nine with --preset paper). With 3 or more objectives, the full "
+        "lattice with h divisions, so N must be one of its sizes, C(h+m-1, m-1) (3, 6, 10, "
+        "15, 21, ... for 3 objectives; another N is refused naming the nearest two); the "
+        "default there is the smallest such lattice with at least "
+        f"{presets.DEFAULT_N_PREFS} points (10 for 3 objectives)",
     )
     g.add_argument("--prefs", default=None, help="explicit preferences, e.g. '1,0;0.5,0.5;0,1'")
     p.add_argument(
@@ -346,7 +350,11 @@ def config_from_args(args) -> SweepConfig:
         if n < 1:
             raise SweepError(f"--n-prefs must be >= 1, got {n}")
         m = int(make_env(SweepConfig(prefs=(), env=args.env)).num_objectives)
-        prefs = tuple(tuple(float(x) for x in p) for p in pareto.simplex_lattice(m, n))
+        try:
+            grid = pareto.preference_lattice(m, n, exact=args.n_prefs is not None)
+        except ValueError as err:
+            raise SweepError(f"--n-prefs: {err}") from None
+        prefs = tuple(tuple(float(x) for x in p) for p in grid)
     env_options = dict(defaults.env_options)
     if args.physics is not None:
         env_options["physics"] = args.physics

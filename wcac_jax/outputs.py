@@ -85,6 +85,7 @@ def summarize(config, env, prefs, j_ub, hv_ref, metrics, evaluation, timing) -> 
       hv_ref: `[m]` hypervolume reference point.
       metrics: per-iteration training metrics `[P, T, ...]` on the host.
       evaluation: `eval/return`, `eval/discounted_return` `[P', m]`, `eval/length` `[P']`
+        and, for an environment reporting its forward speed, `eval/x_velocity` `[P']`
         (`P' >= P`: rows past `P` are padding).
       timing: `compile_s`, `train_s`, `wall_s`, `steps_this_run`.
     """
@@ -112,6 +113,8 @@ def summarize(config, env, prefs, j_ub, hv_ref, metrics, evaluation, timing) -> 
                 "inside_hv_ref": not bool(outside[i]),
             }
         )
+        if "eval/x_velocity" in evaluation:  # an environment reporting its forward speed
+            rows[-1]["mean_x_velocity"] = float(np.asarray(evaluation["eval/x_velocity"])[i])
     return {
         "env": config.env,
         "objective_names": list(env.objective_names),

@@ -3,8 +3,9 @@
 `nondominated` (the mask of the front), `hypervolume` (exact: a sweep line for `m = 2`,
 a recursive slicing algorithm (HSO) over the non-dominated set for `m >= 3`),
 `outside_reference` (the points a reference point leaves out of the hypervolume),
-`expected_utility` (EUM), `sparsity`, `cardinality`, and `simplex_lattice` (the uniform
-preference grid the sweep uses). All points are maximised: `a` dominates `b` when
+`expected_utility` (EUM), `sparsity`, `cardinality`, `simplex_lattice` (a uniform
+preference grid of any size) and `preference_lattice` (the sweep's `--n-prefs` grid, a
+full, even lattice for three objectives and more). All points are maximised: `a` dominates `b` when
 `a >= b` everywhere and `a > b` somewhere. NaN inputs and mismatched shapes raise
 `ValueError`.
 """
@@ -208,3 +209,36 @@ def simplex_lattice(m: int, n: int) -> np.ndarray:
         dist = np.min(np.linalg.norm(grid[:, None] - grid[chosen][None], axis=-1), axis=1)
         chosen.append(int(np.argmax(dist)))
     return grid[sorted(chosen)]
+
+
+def lattice_size(m: int, h: int) -> int:
+    """Points of the full simplex lattice of `m` objectives with step `1/h`:
+    `C(h + m - 1, m - 1)` (3, 6, 10, 15, 21, ... for `m = 3`)."""
+    return math.comb(h + m - 1, m - 1)
+
+
+def preference_lattice(m: int, n: int, exact: bool = True) -> np.ndarray:
+    """The sweep's `n` preferences for `m` objectives, `[n, m]`.
+
+    For `m <= 2`, `simplex_lattice(m, n)` (`n` evenly spaced points). For `m >= 3`, the
+    full simplex lattice with step `1/h` (every preference whose entries are multiples of
+    `1/h`), which is even only whole: `n` must be one of its sizes `lattice_size(m, h)`
+    (`exact`), or else (`exact=False`) the smallest full lattice with at least `n`
+    points is returned.
+
+    Raises:
+      ValueError: `exact` and `n` not a lattice size for `m >= 3` (naming the nearest).
+    """
+    if m <= 2 or n == 1:
+        return simplex_lattice(m, n)
+    h = 1
+    while lattice_size(m, h) < n:
+        h += 1
+    if exact and lattice_size(m, h) != n:
+        below = lattice_size(m, h - 1) if h > 1 else None
+        nearest = f"{below} or {lattice_size(m, h)}" if below else f"{lattice_size(m, h)}"
+        raise ValueError(
+            f"{n} preferences do not make an even lattice on the {m}-objective simplex; "
+            f"the nearest that do: {nearest} (C(h+{m - 1}, {m - 1}) for h divisions)"
+        )
+    return simplex_lattice(m, lattice_size(m, h))

@@ -70,6 +70,8 @@ def plot_front(
     if isinstance(runs, str | os.PathLike | Mapping):
         runs = [runs]
     fronts = [load_front(r) for r in runs]
+    if len(fronts) == 1 and len(fronts[0]["prefs"][0]["pref"]) == 3 and ax is None:
+        return plot_front_3d(fronts[0], key)
     labels = labels or [
         f.get("config", {}).get("train", {}).get("scalarization", "run") for f in fronts
     ]
@@ -127,6 +129,63 @@ def plot_front(
     ax.legend(fontsize=8, loc="best")
     ax.set_title(f"Pareto front ({fronts[0].get('env', '')})")
     ax.grid(alpha=0.3)
+    fig.tight_layout()
+    return fig
+
+
+def plot_front_3d(run, key: str = "return") -> Figure:
+    """A 3-objective front as its three pairwise projections, each point coloured by its
+    preference (red, green, blue: the weights of objectives 0, 1, 2), non-dominated
+    points filled and dominated ones hollow; a fourth panel shows the preferences on the
+    simplex in the same colours. `plot_front` draws one 3-objective run this way.
+
+    Args:
+      run: a directory or a parsed `front.json` dict with 3 objectives.
+      key: `"return"` (undiscounted) or `"discounted_return"`.
+    """
+    front = load_front(run)
+    prefs, points = _points(front, key)
+    if points.shape[1] != 3:
+        raise ValueError(f"plot_front_3d draws 3 objectives; this run has {points.shape[1]}")
+    colours = np.clip(prefs, 0.0, 1.0)
+    mask = pareto.nondominated(points)
+    names = front.get("objective_names", [f"objective {j}" for j in range(3)])
+    kind = "undiscounted" if key == "return" else "discounted"
+    fig, axes = plt.subplots(2, 2, figsize=(9.6, 8.4))
+    for ax, (a, b) in zip(axes.flat[:3], [(0, 1), (0, 2), (1, 2)], strict=True):
+        for filled in (False, True):
+            sel = mask == filled
+            ax.scatter(
+                points[sel, a],
+                points[sel, b],
+                c=colours[sel] if filled else "none",
+                edgecolors=colours[sel],
+                s=55,
+                linewidths=1.4,
+                label="non-dominated" if filled else "dominated",
+                zorder=3,
+            )
+        ax.set_xlabel(f"{names[a]} ({kind} return)")
+        ax.set_ylabel(f"{names[b]} ({kind} return)")
+        ax.grid(alpha=0.3)
+    axes[0, 0].legend(fontsize=8, loc="best")
+    simplex = axes[1, 1]
+    # barycentric coordinates: objective 0 at the lower left, 1 lower right, 2 on top
+    corners = np.array([[0.0, 0.0], [1.0, 0.0], [0.5, np.sqrt(3) / 2]])
+    xy = prefs @ corners
+    simplex.fill(corners[:, 0], corners[:, 1], facecolor="none", edgecolor="grey", lw=0.8)
+    simplex.scatter(xy[:, 0], xy[:, 1], c=colours, s=55, edgecolors="k", linewidths=0.4)
+    for j, (cx, cy) in enumerate(corners):
+        simplex.annotate(names[j], (cx, cy), ha="center", va="bottom" if j == 2 else "top")
+    simplex.set_aspect("equal")
+    simplex.axis("off")
+    simplex.set_title("preferences", fontsize=9, pad=18)
+    hv = front.get("hypervolume")
+    hv_txt = f", HV {hv:.4g}" if hv is not None and key == "return" else ""
+    fig.suptitle(
+        f"Pareto front ({front.get('env', '')}): {int(mask.sum())} of {len(points)} "
+        f"non-dominated{hv_txt}"
+    )
     fig.tight_layout()
     return fig
 

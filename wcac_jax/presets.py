@@ -178,7 +178,15 @@ ENV_DEFAULTS: dict[str, Defaults] = {
     ),
     **{
         name: _mo_gymnasium_task(name)
-        for name in ("hopper", "hopper-2obj", "halfcheetah", "swimmer")
+        for name in (
+            "hopper",
+            "hopper-2obj",
+            "halfcheetah",
+            "swimmer",
+            "ant",
+            "ant-2obj",
+            "humanoid",
+        )
     },
     "concave_bandit": Defaults(
         "presets.BANDIT",

@@ -395,7 +395,9 @@ def make_evaluate(config, env, num_episodes: int, trainer: Trainer) -> Callable:
     and returns, for each objective, the mean undiscounted return
     (`eval/return`, `[m]`) and the mean discounted return (discount `config.gamma`) from
     the start state (`eval/discounted_return`, `[m]`), plus `eval/length` (mean episode
-    length).
+    length) and, for an environment that reports its forward speed (`x_velocity` in
+    `State.metrics`, the engine's own), `eval/x_velocity`: its mean over every step of
+    the episodes (m/s).
     """
     venv = vectorize(env)
     m = int(env.num_objectives)
@@ -403,27 +405,33 @@ def make_evaluate(config, env, num_episodes: int, trainer: Trainer) -> Callable:
 
     def evaluate(state: UpdateState, key: chex.PRNGKey):
         env_state = venv.reset(jax.random.split(typed_key(key), num_episodes))
+        has_x = "x_velocity" in env_state.metrics
 
         def step(carry, _):
-            env_state, alive, ret, disc_ret, discount, length = carry
+            (env_state, alive, ret, disc_ret, discount, length), x_sum = carry
             action = trainer.mean_action(state, env_state.obs)
             env_state = venv.step(env_state, action)
             r = env_state.reward * alive[:, None]
             ret, disc_ret = ret + r, disc_ret + discount[:, None] * r
+            if has_x:
+                x_sum = x_sum + env_state.metrics["x_velocity"] * alive
             length = length + alive
             alive = alive * (1.0 - env_state.done)
-            return (env_state, alive, ret, disc_ret, discount * gamma, length), None
+            return ((env_state, alive, ret, disc_ret, discount * gamma, length), x_sum), None
 
         zeros = jnp.zeros((num_episodes, m), jnp.float32)
         ones = jnp.ones((num_episodes,), jnp.float32)
         carry = (env_state, ones, zeros, zeros, ones, jnp.zeros_like(ones))
-        (_, _, ret, disc_ret, _, length), _ = jax.lax.scan(
-            step, carry, None, length=int(env.episode_length)
+        ((_, _, ret, disc_ret, _, length), x_sum), _ = jax.lax.scan(
+            step, (carry, jnp.zeros_like(ones)), None, length=int(env.episode_length)
         )
-        return {
+        out = {
             "eval/return": jnp.mean(ret, axis=0),
             "eval/discounted_return": jnp.mean(disc_ret, axis=0),
             "eval/length": jnp.mean(length),
         }
+        if has_x:
+            out["eval/x_velocity"] = jnp.sum(x_sum) / jnp.maximum(jnp.sum(length), 1.0)
+        return out
 
     return evaluate

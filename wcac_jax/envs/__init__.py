@@ -46,6 +46,9 @@ _REGISTRY: dict[str, str] = {
     "hopper-2obj": "wcac_jax.envs.hopper:HopperTwoObjectives",
     "halfcheetah": "wcac_jax.envs.halfcheetah:HalfCheetah",
     "swimmer": "wcac_jax.envs.swimmer:Swimmer",
+    "ant": "wcac_jax.envs.ant:Ant",
+    "ant-2obj": "wcac_jax.envs.ant:AntTwoObjectives",
+    "humanoid": "wcac_jax.envs.humanoid:Humanoid",
 }
 
 

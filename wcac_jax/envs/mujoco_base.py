@@ -32,6 +32,11 @@ A task subclass declares `objective_names`, `observation_size`, `action_size` (a
   the action taken;
 - `reset_metrics(data)`: the same metrics' values at a reset.
 
+A task that reads more of MuJoCo's state than `qpos` and `qvel` names those `mjData`
+fields in `fields` (read with `self.engine.field(data, name)`, see `engines`) and may
+override `transition(old, data, dqpos, action)`, which sees the state before the step too
+(`self.engine.field_change(old, data, name)`), instead of `outcome`.
+
 `data` is the engine's state: float32 `data.qpos [nq]` and `data.qvel [nv]` in the model's
 own coordinates (`qpos(data)` in the task's).
 """
@@ -89,6 +94,7 @@ class MujocoEnv(MOEnv):
     frame_skip: int = 4
     height_body: str | None = "torso"
     velocity_noise: str = "uniform"
+    fields: tuple[str, ...] = ()
 
     def __init__(
         self,
@@ -118,7 +124,7 @@ class MujocoEnv(MOEnv):
         self._noise = float(reset_noise_scale)
         self.mj_model = load_model(model_path, solver_iterations, ls_iterations)
         self._z_offset = self._height_offset(self.mj_model)
-        self.engine = engines.make(engine, self.mj_model, n_frames=self.frame_skip)
+        self.engine = engines.make(engine, self.mj_model, self.frame_skip, self.fields)
         self.dt = self.engine.dt
 
     def _height_offset(self, mj_model: mujoco.MjModel) -> float | None:
@@ -142,6 +148,12 @@ class MujocoEnv(MOEnv):
     def reset_metrics(self, data) -> dict:
         raise NotImplementedError
 
+    def transition(self, old, data, dqpos: jax.Array, action: jax.Array):
+        """`outcome` of the step from `old` to `data` (a task with `fields` may read
+        their change over the step here)."""
+        del old
+        return self.outcome(data, dqpos, action)
+
     # ------------------------------------------------------------------ every task
 
     def reset(self, rng: jax.Array) -> State:
@@ -162,7 +174,7 @@ class MujocoEnv(MOEnv):
 
     def step(self, state: State, action: jax.Array) -> State:
         data, dqpos = self.engine.step(state.pipeline_state, action)
-        reward, done, metrics = self.outcome(data, dqpos, action)
+        reward, done, metrics = self.transition(state.pipeline_state, data, dqpos, action)
         return state.replace(
             pipeline_state=data,
             obs=self.observation(data),

@@ -69,12 +69,22 @@ class Swimmer(MujocoEnv):
     def outcome(self, data, dqpos: jax.Array, action: jax.Array):
         x_velocity = dqpos[0] / self.dt
         ctrl = -jnp.sum(jnp.square(action))
-        metrics = {"reward_forward": x_velocity, "reward_ctrl": ctrl, "x_position": data.qpos[0]}
+        metrics = {
+            "reward_forward": x_velocity,
+            "reward_ctrl": ctrl,
+            "x_position": data.qpos[0],
+            "x_velocity": x_velocity,
+        }
         return jnp.stack([x_velocity, ctrl]), jnp.zeros((), jnp.float32), metrics
 
     def reset_metrics(self, data) -> dict:
         zero = jnp.zeros((), jnp.float32)
-        return {"reward_forward": zero, "reward_ctrl": zero, "x_position": data.qpos[0]}
+        return {
+            "reward_forward": zero,
+            "reward_ctrl": zero,
+            "x_position": data.qpos[0],
+            "x_velocity": zero,
+        }
 
     def observation(self, data) -> jax.Array:
         return jnp.concatenate([data.qpos[2:], data.qvel])

@@ -10,7 +10,15 @@ environment step (`n_frames`), and offers two pure functions on one unbatched co
   held, and the change of `qpos` over them computed at the engine's own precision
   (float32 differences of positions lose ~1e-5 m/s of velocity at x ~ 1 m).
 
-Every `data` exposes float32 `qpos [nq]` and `qvel [nv]`. Engines:
+Every `data` exposes float32 `qpos [nq]` and `qvel [nv]`. A task whose observation or
+reward reads more of MuJoCo's state than `qpos` and `qvel` (contact forces, body
+positions, centre-of-mass quantities) names those `mjData` fields (`fields`, e.g.
+`("xpos", "cfrc_ext")`); both engines then keep them as Gymnasium's tasks see them after
+a step (`mj_step` then `mj_rnePostConstraint`: the values of the step's last force
+evaluation, not recomputed at the final positions) and after a reset (`mj_forward`; the
+contact forces zero), read with `engine.field(data, name)` (float32, the field's shape)
+and `engine.field_change(old, new, name)` (the change over a step, at the engine's
+precision). Engines:
 
 - `"mjx"` (`engines.mjx`): MJX, MuJoCo rewritten in JAX (float32), through Brax's MJX
   pipeline; the path for accelerators.
@@ -26,8 +34,9 @@ import mujoco
 ENGINES = ("mjx", "mujoco")
 
 
-def make(name: str, mj_model: mujoco.MjModel, n_frames: int):
-    """The engine `name` stepping `mj_model` `n_frames` substeps per step.
+def make(name: str, mj_model: mujoco.MjModel, n_frames: int, fields: tuple[str, ...] = ()):
+    """The engine `name` stepping `mj_model` `n_frames` substeps per step, keeping the
+    `mjData` `fields` (see the module docstring).
 
     Raises:
       ValueError: an unknown `name` (naming the valid ones).
@@ -35,11 +44,11 @@ def make(name: str, mj_model: mujoco.MjModel, n_frames: int):
     if name == "mjx":
         from wcac_jax.envs.engines.mjx import MjxEngine
 
-        return MjxEngine(mj_model, n_frames)
+        return MjxEngine(mj_model, n_frames, fields)
     if name == "mujoco":
         from wcac_jax.envs.engines.mujoco import MujocoEngine
 
-        return MujocoEngine(mj_model, n_frames)
+        return MujocoEngine(mj_model, n_frames, fields=fields)
     raise ValueError(f"unknown engine {name!r}; valid: {', '.join(ENGINES)}")
 
 

@@ -4,7 +4,8 @@
 `qd`, `x`, `xd`); `step` scans `n_frames` pipeline steps with the action held, exactly as
 Brax's `PipelineEnv.pipeline_step`, so the numbers are those of the earlier
 `PipelineEnv`-based Walker2d bit for bit. Fast on accelerators; on a CPU the `"mujoco"`
-engine is several times faster.
+engine is several times faster. The `mjData` fields a task names are MJX's own (`cfrc_ext`
+filled by `mjx.rne_postconstraint` after a step, as Gymnasium calls its C counterpart).
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ import mujoco
 import numpy as np
 from brax.io import mjcf
 from brax.mjx import pipeline
+from mujoco import mjx
 
 
 @contextlib.contextmanager
@@ -45,7 +47,7 @@ class MjxEngine:
 
     name = "mjx"
 
-    def __init__(self, mj_model: mujoco.MjModel, n_frames: int):
+    def __init__(self, mj_model: mujoco.MjModel, n_frames: int, fields: tuple[str, ...] = ()):
         with warnings.catch_warnings():
             # Brax's note that its own pipelines and environments are unmaintained: we
             # use only its MJX pipeline (MJX itself is maintained)
@@ -60,6 +62,7 @@ class MjxEngine:
         self.dt = float(mj_model.opt.timestep) * self.n_frames
         self.init_qpos = np.asarray(mj_model.qpos0, np.float32)
         self.nq, self.nv = int(mj_model.nq), int(mj_model.nv)
+        self.fields = tuple(fields)
 
     def init(self, qpos: jax.Array, qvel: jax.Array):
         """`qpos [nq]`, `qvel [nv]` -> Brax MJX pipeline state (after `mj_forward`)."""
@@ -72,4 +75,14 @@ class MjxEngine:
             return pipeline.step(self.sys, d, action), None
 
         new = jax.lax.scan(substep, data, (), self.n_frames)[0]
+        if "cfrc_ext" in self.fields:
+            new = mjx.rne_postconstraint(self.sys, new)
         return new, new.qpos - data.qpos
+
+    def field(self, data, name: str) -> jax.Array:
+        """The `mjData` field `name` (one of `fields`) of `data`, float32."""
+        return getattr(data, name)
+
+    def field_change(self, old, new, name: str) -> jax.Array:
+        """`name`'s change from `old` to `new` (float32 difference)."""
+        return getattr(new, name) - getattr(old, name)

@@ -1,0 +1,368 @@
+"""The MO-Gymnasium MuJoCo suite: each task's front with smooth_wc and with linear at the
+task's default budget, a single-objective PPO reference per task, and the table that sets
+them beside each other and beside the published numbers.
+
+Three commands, each writing under `--results` (default `experiments/results/mo_mujoco`):
+
+- `fronts`: for each task (`--envs`, default all), `python -m wcac_jax.sweep --env E
+  --scalarization S --seed N` for S in smooth_wc and linear, one compiled program each,
+  into `<env>/<S>/`. `--smoke`: 3 preferences (the corners on 3 objectives), 20,480 env
+  steps each, 1 evaluation episode, to check the script end to end.
+- `ppo`: the yardstick of one task, sbx PPO with `experiments/reference_ppo.py`'s settings
+  (16 environments, 64 x 64, rollouts of 128, minibatches of 256, 10 epochs, Adam 3e-4,
+  `VecNormalize`) on the task's own single-objective Gymnasium v5 reward
+  (`Hopper-v5`, `HalfCheetah-v5`, `Swimmer-v5`, `Ant-v5`, `Humanoid-v5`, each with its
+  default weights), the same episode length (500) and the same env-step budget per policy
+  as a front's preference; then its deterministic policy over 8 episodes. Writes
+  `<env>/reference_ppo.json` (`mean_x_velocity` from Gymnasium's own `x_velocity`,
+  `episode_length`, `wall_s`). sbx is not a dependency of wcac_jax: run this command
+  with a Python that has `sbx-rl==0.28.0` and `gymnasium[mujoco]` (as `reference_ppo.py`
+  says); it imports nothing of wcac_jax.
+- `table`: reads every committed `front.json` and `reference_ppo.json` under
+  `--results` and writes `table.md` and `table.json` (`summarize`, `write_table`): per
+  task and scalarization the hypervolume under morl-baselines' convention (discounted
+  returns, gamma 0.99, reference -100 per objective) and PGMORL's (undiscounted returns,
+  reference at the origin, PGMORL's objective definitions where they map onto v5's:
+  `PGMORL_MAPPING`), expected utility, the non-dominated count, the forward end's mean
+  speed against the reference's, wall times, and the published numbers of
+  `<results>/published.json` beside them (each with its source and how its definitions
+  and budget differ). No number is typed here: all are read from those files.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import time
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+RESULTS = os.path.join(ROOT, "experiments", "results", "mo_mujoco")
+SCALARIZATIONS = ("smooth_wc", "linear")
+# each task's own single-objective Gymnasium v5 environment
+SINGLE_OBJECTIVE = {
+    "hopper": "Hopper-v5",
+    "hopper-2obj": "Hopper-v5",
+    "halfcheetah": "HalfCheetah-v5",
+    "swimmer": "Swimmer-v5",
+    "ant": "Ant-v5",
+    "ant-2obj": "Ant-v5",
+    "humanoid": "Humanoid-v5",
+}
+EPISODE_LENGTH = 500
+MORL_BASELINES_GAMMA = 0.99
+MORL_BASELINES_REF = -100.0
+# PGMORL's objectives as v5's plus a constant per step, where they map (their models,
+# health rules and action clipping differ besides): (per-step offsets, or None where an
+# objective is scaled differently and does not map, and what differs)
+PGMORL_MAPPING = {
+    "walker2d": ((0.0, 4.0), "energy = 4 - sum a^2 + 1: v5's control + 4 per step"),
+    "halfcheetah": (
+        (1.0, 5.0),
+        "forward = min(4, v) + 1 (capped at 4 m/s there, not here); energy = 4 - sum a^2 "
+        "+ 1: v5's control + 5 per step",
+    ),
+    "hopper": (
+        (None, None, 4.0),
+        "forward 1.5 v + 1 and height 12 dz + 1 are scaled differently (v5's as is); "
+        "energy = 4 - sum a^2 + 1: v5's control + 4 per step",
+    ),
+    "hopper-2obj": (
+        (None, None),
+        "forward 1.5 v and height 12 dz, each + 1 - 2e-4 sum a^2: scaled differently (v5's as is)",
+    ),
+    "swimmer": (
+        (None, None),
+        "energy = 0.3 - 0.15 sum a^2: scaled differently (v5's as is)",
+    ),
+    "ant-2obj": (
+        (0.0, 0.0),
+        "x and y speed - 0.5 sum a^2 + 1 as v5's, but without v5's contact cost",
+    ),
+    "ant": ((None, None, None), "PGMORL has no 3-objective ant (v5's as is)"),
+    "humanoid": (
+        (None, None),
+        "forward 1.25 v + 3 and energy 3 - 4 sum a^2 + 3: scaled differently (v5's as is)",
+    ),
+}
+
+
+# ---------------------------------------------------------------------- fronts
+
+
+def sweep_command(env: str, scalarization: str, out: str, seed: int, smoke: bool) -> list[str]:
+    """The sweep command of one front (the task's default configuration and budget)."""
+    cmd = [sys.executable, "-m", "wcac_jax.sweep", "--env", env]
+    cmd += ["--scalarization", scalarization, "--seed", str(seed), "--out", out]
+    if smoke:
+        cmd += ["--n-prefs", "3", "--steps-per-pref", "20480", "--eval-episodes", "1"]
+    return cmd
+
+
+def run_fronts(envs, results: str, seed: int, smoke: bool) -> int:
+    for env in envs:
+        for scal in SCALARIZATIONS:
+            out = os.path.join(results, env, scal)
+            cmd = sweep_command(env, scal, out, seed, smoke)
+            print("+", " ".join(cmd[1:]), flush=True)
+            code = subprocess.run(cmd, cwd=ROOT, env={**os.environ, "PYTHONPATH": ROOT}).returncode
+            if code != 0:
+                print(f"error: the {env} {scal} sweep exited with {code}", file=sys.stderr)
+                return code
+    return 0
+
+
+# ---------------------------------------------------------------------- PPO reference
+
+
+def run_ppo(env: str, out: str, steps: int, seed: int, eval_episodes: int) -> int:
+    """One sbx PPO run on `env`'s single-objective v5 task; writes `out` (JSON)."""
+    try:
+        import gymnasium as gym
+        import numpy as np
+        from sbx import PPO
+        from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+    except ImportError as e:
+        print(f"error: {e}; `ppo` needs sbx-rl and gymnasium[mujoco]", file=sys.stderr)
+        return 2
+    gym_id = SINGLE_OBJECTIVE[env]
+
+    def make():
+        return gym.make(gym_id, max_episode_steps=EPISODE_LENGTH)
+
+    venv = VecNormalize(DummyVecEnv([make] * 16), gamma=0.99)
+    model = PPO(
+        "MlpPolicy",
+        venv,
+        n_steps=128,
+        batch_size=256,
+        n_epochs=10,
+        learning_rate=3e-4,
+        clip_range=0.2,
+        gae_lambda=0.95,
+        gamma=0.99,
+        policy_kwargs={"net_arch": [64, 64], "log_std_init": 0.0},
+        seed=seed,
+        verbose=0,
+    )
+    t0 = time.perf_counter()
+    model.learn(total_timesteps=steps)
+    wall_s = time.perf_counter() - t0
+    single = make()
+    speeds, lengths, returns = [], [], []
+    for episode in range(eval_episodes):
+        obs, _ = single.reset(seed=10_000 + episode)
+        done, ret = False, 0.0
+        while not done:
+            action, _ = model.predict(venv.normalize_obs(obs[None]), deterministic=True)
+            obs, reward, terminated, truncated, info = single.step(action[0])
+            speeds.append(float(info["x_velocity"]))
+            ret += float(reward)
+            done = terminated or truncated
+        lengths.append(len(speeds) - sum(lengths))
+        returns.append(ret)
+    result = {
+        "env": env,
+        "gym_id": gym_id,
+        "episode_length_limit": EPISODE_LENGTH,
+        "env_steps": steps,
+        "seed": seed,
+        "wall_s": wall_s,
+        "mean_x_velocity": float(np.mean(speeds)),
+        "episode_length": float(np.mean(lengths)),
+        "return": float(np.mean(returns)),
+        "eval_episodes": eval_episodes,
+        "when": time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime()),
+    }
+    os.makedirs(os.path.dirname(os.path.abspath(out)), exist_ok=True)
+    with open(out, "w") as f:
+        json.dump(result, f, indent=1)
+    print(json.dumps(result, indent=1))
+    return 0
+
+
+# ---------------------------------------------------------------------- the table
+
+
+def _load(path: str):
+    if not os.path.exists(path):
+        return None
+    with open(path) as f:
+        return json.load(f)
+
+
+def _forward_end(front: dict) -> dict:
+    """The row of the preference with the largest weight on the first objective."""
+    return max(front["prefs"], key=lambda row: (row["pref"][0], -sum(row["pref"][1:])))
+
+
+def pgmorl_returns(env: str, front: dict):
+    """`[P, m]` undiscounted returns with PGMORL's per-step offsets added where its
+    objectives map onto v5's (`PGMORL_MAPPING`; v5's as is elsewhere)."""
+    import numpy as np
+
+    returns = np.array([row["return"] for row in front["prefs"]], dtype=np.float64)
+    lengths = np.array([row["episode_length"] for row in front["prefs"]], dtype=np.float64)
+    offsets = PGMORL_MAPPING.get(env, ((None,) * returns.shape[1], ""))[0]
+    for j, c in enumerate(offsets):
+        if c is not None:
+            returns[:, j] += c * lengths
+    return returns
+
+
+def summarize_front(env: str, front: dict, reference: dict | None) -> dict:
+    """One row of the table from a `front.json` (and the task's PPO reference)."""
+    import numpy as np
+
+    from wcac_jax import pareto
+
+    m = len(front["objective_names"])
+    gamma = front.get("config", {}).get("train", {}).get("gamma")
+    disc = np.array([row["discounted_return"] for row in front["prefs"]], dtype=np.float64)
+    end = _forward_end(front)
+    row = {
+        "env": env,
+        "scalarization": front.get("config", {}).get("train", {}).get("scalarization"),
+        "n_prefs": len(front["prefs"]),
+        "env_steps_per_pref": front["env_steps_per_pref"],
+        "gamma": gamma,
+        "hv_morl_baselines": pareto.hypervolume(disc, [MORL_BASELINES_REF] * m),
+        "hv_pgmorl": pareto.hypervolume(pgmorl_returns(env, front), [0.0] * m),
+        "expected_utility": front["expected_utility"],
+        "nondominated": front["cardinality"],
+        "forward_end_pref": end["pref"],
+        "forward_end_mean_x_velocity": end.get("mean_x_velocity"),
+        "forward_end_episode_length": end["episode_length"],
+        "wall_s": front["wall_s"],
+    }
+    if reference is not None:
+        speed, ref_speed = row["forward_end_mean_x_velocity"], reference["mean_x_velocity"]
+        row["reference_mean_x_velocity"] = ref_speed
+        row["reference_wall_s"] = reference["wall_s"]
+        row["reference_env_steps"] = reference["env_steps"]
+        row["speed_ratio"] = None if speed is None or ref_speed == 0 else speed / ref_speed
+        # a whole front in one program against P separate runs, with a margin of 1.5
+        row["wall_ratio"] = row["wall_s"] / (row["n_prefs"] * reference["wall_s"] / 1.5)
+    return row
+
+
+def summarize(results: str) -> dict:
+    """Every task's rows (one per scalarization found) and the published numbers."""
+    rows = []
+    for env in sorted(os.listdir(results)) if os.path.isdir(results) else []:
+        reference = _load(os.path.join(results, env, "reference_ppo.json"))
+        for scal in SCALARIZATIONS:
+            front = _load(os.path.join(results, env, scal, "front.json"))
+            if front is not None:
+                rows.append(summarize_front(env, front, reference))
+    published = _load(os.path.join(results, "published.json")) or []
+    return {
+        "conventions": {
+            "hv_morl_baselines": f"discounted returns (gamma {MORL_BASELINES_GAMMA}), "
+            f"reference {MORL_BASELINES_REF} per objective",
+            "hv_pgmorl": "undiscounted returns, reference at the origin, PGMORL's "
+            "objective definitions where they map onto v5's",
+        },
+        "pgmorl_mapping": {env: note for env, (_, note) in PGMORL_MAPPING.items()},
+        "rows": rows,
+        "published": published,
+    }
+
+
+def _fmt(x, spec: str = ".4g") -> str:
+    if x is None:
+        return "-"
+    if isinstance(x, list):
+        return "(" + ", ".join(_fmt(v, ".3g") for v in x) + ")"
+    return format(x, spec)
+
+
+def write_table(summary: dict, results: str) -> None:
+    """`table.md` and `table.json` under `results`."""
+    lines = [
+        "# The MO-Gymnasium MuJoCo suite: fronts, PPO references and published numbers",
+        "",
+        "Written by `python experiments/mo_mujoco.py table` from the `front.json` and "
+        "`reference_ppo.json` files beside this table.",
+        "",
+        f"- HV (morl-baselines): {summary['conventions']['hv_morl_baselines']}.",
+        f"- HV (PGMORL): {summary['conventions']['hv_pgmorl']}.",
+        "- speed ratio: the forward end's mean x velocity over the PPO reference's; wall "
+        "ratio: the front's wall time over P x the reference's / 1.5 (below 1: the front "
+        "in one program beats P separate PPO runs by the margin).",
+        "",
+        "| task | scalarization | P | steps/pref | gamma | HV (morl-baselines) | HV (PGMORL) "
+        "| EU | non-dominated | forward end | its speed (m/s) | PPO speed (m/s) | speed "
+        "ratio | wall (s) | PPO wall (s) | wall ratio |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in summary["rows"]:
+        lines.append(
+            f"| {r['env']} | {r['scalarization']} | {r['n_prefs']} "
+            f"| {r['env_steps_per_pref']:,} | {_fmt(r['gamma'])} "
+            f"| {_fmt(r['hv_morl_baselines'])} | {_fmt(r['hv_pgmorl'])} "
+            f"| {_fmt(r['expected_utility'])} | {r['nondominated']} "
+            f"| {_fmt(r['forward_end_pref'])} | {_fmt(r['forward_end_mean_x_velocity'], '.3f')} "
+            f"| {_fmt(r.get('reference_mean_x_velocity'), '.3f')} "
+            f"| {_fmt(r.get('speed_ratio'), '.2f')} | {_fmt(r['wall_s'], '.0f')} "
+            f"| {_fmt(r.get('reference_wall_s'), '.0f')} | {_fmt(r.get('wall_ratio'), '.2f')} |"
+        )
+    lines += ["", "PGMORL's objectives against v5's:", ""]
+    lines += [f"- {env}: {note}" for env, note in summary["pgmorl_mapping"].items()]
+    lines += ["", "## Published numbers", ""]
+    if summary["published"]:
+        lines += ["| task | method | metric | value | source | how it differs from ours |"]
+        lines += ["|---|---|---|---|---|---|"]
+        for p in summary["published"]:
+            lines.append(
+                f"| {p['task']} | {p['method']} | {p['metric']} | {_fmt(p['value'])} "
+                f"| {p['source']} | {p['differs']} |"
+            )
+    else:
+        lines.append("None entered yet (`published.json`, each with its source).")
+    os.makedirs(results, exist_ok=True)
+    with open(os.path.join(results, "table.md"), "w") as f:
+        f.write("\n".join(lines) + "\n")
+    with open(os.path.join(results, "table.json"), "w") as f:
+        json.dump(summary, f, indent=1)
+
+
+# ---------------------------------------------------------------------- command line
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("command", choices=("fronts", "ppo", "table"))
+    parser.add_argument("--envs", default=",".join(SINGLE_OBJECTIVE), help="fronts: tasks")
+    parser.add_argument("--env", default=None, help="ppo: the task")
+    parser.add_argument("--results", default=RESULTS, help="results directory")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--smoke", action="store_true", help="a tiny budget, end to end")
+    parser.add_argument(
+        "--steps", type=int, default=1_000_000, help="ppo: env steps (a preference's budget)"
+    )
+    parser.add_argument("--eval-episodes", type=int, default=8, help="ppo: evaluation episodes")
+    args = parser.parse_args(argv)
+    if args.command == "fronts":
+        envs = [e for e in args.envs.split(",") if e]
+        unknown = [e for e in envs if e not in SINGLE_OBJECTIVE]
+        if unknown:
+            parser.error(f"unknown task(s) {unknown}; valid: {', '.join(SINGLE_OBJECTIVE)}")
+        return run_fronts(envs, args.results, args.seed, args.smoke)
+    if args.command == "ppo":
+        if args.env not in SINGLE_OBJECTIVE:
+            parser.error(f"ppo needs --env, one of {', '.join(SINGLE_OBJECTIVE)}")
+        steps, episodes = (4096, 1) if args.smoke else (args.steps, args.eval_episodes)
+        out = os.path.join(args.results, args.env, "reference_ppo.json")
+        return run_ppo(args.env, out, steps, args.seed, episodes)
+    sys.path.insert(0, ROOT)
+    summary = summarize(args.results)
+    write_table(summary, args.results)
+    print(f"wrote {args.results}/table.md and table.json: {len(summary['rows'])} fronts")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,106 @@
+"""experiments/mo_mujoco.py's table writer on tiny made-up results (no training), its
+numbers by hand; and its commands' bad input."""
+
+import json
+import os
+import sys
+
+import pytest
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(__file__)), "experiments"))
+
+import mo_mujoco  # noqa: E402
+
+
+def _front(scalarization, returns, discounted, speeds):
+    prefs = [[1.0, 0.0], [0.0, 1.0]]
+    return {
+        "env": "halfcheetah",
+        "objective_names": ["forward_velocity", "control"],
+        "prefs": [
+            {
+                "pref": p,
+                "return": r,
+                "discounted_return": d,
+                "episode_length": 500.0,
+                "mean_x_velocity": v,
+            }
+            for p, r, d, v in zip(prefs, returns, discounted, speeds, strict=True)
+        ],
+        "cardinality": 2,
+        "expected_utility": 12.5,
+        "env_steps_per_pref": 1000,
+        "wall_s": 30.0,
+        "config": {"train": {"gamma": 0.99, "scalarization": scalarization}},
+    }
+
+
+@pytest.fixture
+def results(tmp_path):
+    task = tmp_path / "halfcheetah"
+    for scal in ("smooth_wc", "linear"):
+        (task / scal).mkdir(parents=True)
+        front = _front(scal, [[100, -50], [10, -5]], [[50, -20], [5, -2]], [2.0, 0.1])
+        (task / scal / "front.json").write_text(json.dumps(front))
+    reference = {"mean_x_velocity": 2.5, "wall_s": 10.0, "env_steps": 1000}
+    (task / "reference_ppo.json").write_text(json.dumps(reference))
+    published = [
+        {
+            "task": "HalfCheetah-2d",
+            "method": "M",
+            "metric": "HV",
+            "value": 1.0e6,
+            "source": "a paper, Table 1",
+            "differs": "v2 model",
+        }
+    ]
+    (tmp_path / "published.json").write_text(json.dumps(published))
+    return str(tmp_path)
+
+
+def test_table_numbers_by_hand(results):
+    summary = mo_mujoco.summarize(results)
+    assert [r["scalarization"] for r in summary["rows"]] == ["smooth_wc", "linear"]
+    row = summary["rows"][0]
+    # discounted (50, -20), (5, -2) from (-100, -100): 150 * 80 + 105 * 18
+    assert row["hv_morl_baselines"] == pytest.approx(12000 + 1890)
+    # PGMORL's halfcheetah: forward + 1 and control + 5 per step (500 steps):
+    # (600, 2450) and (510, 2495) from the origin
+    assert row["hv_pgmorl"] == pytest.approx(600 * 2450 + 510 * 45)
+    assert row["forward_end_pref"] == [1.0, 0.0]
+    assert row["forward_end_mean_x_velocity"] == 2.0
+    assert row["speed_ratio"] == pytest.approx(0.8)
+    assert row["wall_ratio"] == pytest.approx(30.0 / (2 * 10.0 / 1.5))
+    assert row["nondominated"] == 2 and row["expected_utility"] == 12.5
+
+
+def test_table_files(results):
+    mo_mujoco.main(["table", "--results", results])
+    md = open(os.path.join(results, "table.md")).read()
+    assert "| halfcheetah | smooth_wc | 2 | 1,000 | 0.99 | 1.389e+04 | 1.493e+06 |" in md
+    assert "| HalfCheetah-2d | M | HV | 1e+06 | a paper, Table 1 | v2 model |" in md
+    saved = json.load(open(os.path.join(results, "table.json")))
+    assert len(saved["rows"]) == 2 and saved["published"][0]["method"] == "M"
+
+
+def test_a_task_without_a_mapping_keeps_v5_returns():
+    front = _front("linear", [[100, -50], [10, -5]], [[50, -20], [5, -2]], [2.0, 0.1])
+    returns = mo_mujoco.pgmorl_returns("hopper-2obj", front)
+    assert returns.tolist() == [[100, -50], [10, -5]]
+
+
+def test_bad_commands_are_refused(capsys):
+    with pytest.raises(SystemExit):
+        mo_mujoco.main(["fronts", "--envs", "hopper,nope"])
+    assert "unknown task(s) ['nope']" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        mo_mujoco.main(["ppo"])
+    assert "ppo needs --env" in capsys.readouterr().err
+
+
+def test_smoke_sweep_command():
+    cmd = mo_mujoco.sweep_command("ant", "linear", "/tmp/x", 3, smoke=True)
+    assert cmd[1:] == [
+        "-m", "wcac_jax.sweep", "--env", "ant", "--scalarization", "linear", "--seed", "3",
+        "--out", "/tmp/x", "--n-prefs", "3", "--steps-per-pref", "20480", "--eval-episodes", "1",
+    ]  # fmt: skip
