@@ -7,7 +7,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from wcac_jax import envs
+from wcac_jax import envs, networks
 from wcac_jax.envs import base
 from wcac_jax.envs.wrappers import EpisodeWrapper
 
@@ -86,3 +86,13 @@ def test_jitted_smoke_on_mjx():
 def test_humanoid_on_mjx_is_refused_in_one_line():
     with pytest.raises(ValueError, match=r"engine='mujoco' only: MJX cannot load.*PGS"):
         envs.make("humanoid", engine="mjx")
+
+
+def test_the_policy_acts_in_humanoids_own_action_box():
+    """The Gaussian's `[-1, 1]` reaches the environment as humanoid's `[-0.4, 0.4]`."""
+    from wcac_jax import runtime
+
+    env = envs.make("humanoid")
+    policy = runtime.make_policy(env, lambda out: networks.paper_network(4, out, 4, 1), 0.0, True)
+    action = policy.to_env(jnp.full((env.action_size,), 5.0))
+    np.testing.assert_allclose(action, np.full(env.action_size, 0.4), rtol=1e-7)

@@ -258,10 +258,18 @@ class Policy(NamedTuple):
 
 
 def gaussian_policy(
-    network: Network, action_size: int, log_std_init: float, learn_log_std: bool = True
+    network: Network,
+    action_size: int,
+    log_std_init: float,
+    learn_log_std: bool = True,
+    action_bound: float = 1.0,
 ) -> Policy:
     """A diagonal Gaussian with the network's `action_size` outputs as mean and a
     state-independent log-std; `dist = (mean [..., act], log_std [act])`.
+
+    The policy acts in `[-1, 1]^act`; `to_env` clips there and scales by `action_bound`,
+    the half-width of the environment's own action box (humanoid's is 0.4), so the
+    environment receives actions in its own space.
 
     The trainable parameters of the policy, all of which the actor's normalised step
     covers, are the network's trainable parameters and, if `learn_log_std`, the log-std.
@@ -291,8 +299,15 @@ def gaussian_policy(
         log_prob=lambda dist, action: gaussian_log_prob(*dist, action),
         mode=lambda dist: dist[0],
         entropy=entropy,
-        to_env=lambda action: jnp.clip(action, -1.0, 1.0),
+        to_env=_to_box(action_bound),
     )
+
+
+def _to_box(bound: float) -> Callable[[chex.Array], chex.Array]:
+    """`action -> bound * clip(action, -1, 1)` (no multiplication when `bound` is 1)."""
+    if bound == 1.0:
+        return lambda action: jnp.clip(action, -1.0, 1.0)
+    return lambda action: bound * jnp.clip(action, -1.0, 1.0)
 
 
 def categorical_policy(network: Network) -> Policy:
