@@ -525,7 +525,7 @@ def check_pref_count(n_prefs: int, train: AnyConfig, env, flag: str = "--n-prefs
     if need > have:
         raise SweepError(
             f"{flag} {n_prefs:,} needs at least {need / 2**30:,.1f} GiB for the training "
-            f"states ({per_pref / 2**20:,.2f} MiB per preference); this machine has "
+            f"states ({per_pref:,} bytes per preference); this machine has "
             f"{have / 2**30:,.1f} GiB (at most {have // per_pref:,} preferences)"
         )
 
