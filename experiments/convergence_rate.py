@@ -20,6 +20,7 @@ import functools
 import json
 import math
 import os
+import shutil
 import sys
 
 import jax
@@ -28,6 +29,7 @@ import numpy as np
 
 from wcac_jax import envs, scalarize
 from wcac_jax.algos import PaperConfig, make_trainer
+from wcac_jax.outputs import out_refusal, replace_dir, staging_dir
 
 PREFS = ((0.2, 0.8), (0.5, 0.5), (0.8, 0.2))
 BASE = PaperConfig(
@@ -139,7 +141,17 @@ def main(argv=None) -> int:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--quick", action="store_true", help="a tiny run for tests")
     parser.add_argument("--out", default="runs/convergence")
+    parser.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace the results in a non-empty --out (refused without it); they are "
+        "replaced only once the new ones are written",
+    )
     args = parser.parse_args(argv)
+    refusal = out_refusal(args.out, args.overwrite)  # before any work
+    if refusal:
+        print(f"error: {refusal}", file=sys.stderr)
+        return 2
     if args.quick:
         args.iterations, args.every = 4, 2
 
@@ -168,10 +180,14 @@ def main(argv=None) -> int:
         "iterations": args.iterations,
         "results": results,
     }
-    os.makedirs(args.out, exist_ok=True)
-    with open(os.path.join(args.out, "convergence.json"), "w") as f:
+    # written beside --out, then renamed over it: an interrupted run leaves --out whole
+    work = staging_dir(args.out)
+    shutil.rmtree(work, ignore_errors=True)
+    os.makedirs(work)
+    with open(os.path.join(work, "convergence.json"), "w") as f:
         json.dump(out, f, indent=2)
-    _figure(results, os.path.join(args.out, "convergence.png"))
+    _figure(results, os.path.join(work, "convergence.png"))
+    replace_dir(work, args.out)
     return 0
 
 

@@ -27,6 +27,7 @@ import argparse
 import json
 import math
 import os
+import shutil
 import sys
 
 import jax
@@ -37,6 +38,7 @@ from wcac_jax import envs, pareto, presets
 from wcac_jax.algos import make_trainer
 from wcac_jax.envs import concave_bandit as cb
 from wcac_jax.envs import deep_sea_treasure as dst_env
+from wcac_jax.outputs import out_refusal, replace_dir, staging_dir
 from wcac_jax.runtime import TRACED_DIRECTIONS
 
 DIRECTIONS = ("smooth_wc", "wc", "linear", "mgda")
@@ -231,7 +233,17 @@ def main(argv=None) -> int:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--quick", action="store_true", help="a tiny run for tests")
     parser.add_argument("--out", default="runs/exploration")
+    parser.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace the results in a non-empty --out (refused without it); they are "
+        "replaced only once the new ones are written",
+    )
     args = parser.parse_args(argv)
+    refusal = out_refusal(args.out, args.overwrite)  # before any work
+    if refusal:
+        print(f"error: {refusal}", file=sys.stderr)
+        return 2
     if args.quick:
         args.n_prefs, args.iterations = 3, 5
 
@@ -296,10 +308,14 @@ def main(argv=None) -> int:
             )
         result["problems"]["deep_sea_treasure"] = dst
 
-    os.makedirs(args.out, exist_ok=True)
-    with open(os.path.join(args.out, "exploration.json"), "w") as f:
+    # written beside --out, then renamed over it: an interrupted run leaves --out whole
+    work = staging_dir(args.out)
+    shutil.rmtree(work, ignore_errors=True)
+    os.makedirs(work)
+    with open(os.path.join(work, "exploration.json"), "w") as f:
         json.dump(result, f, indent=2)
-    _figure(result, os.path.join(args.out, "exploration.png"))
+    _figure(result, os.path.join(work, "exploration.png"))
+    replace_dir(work, args.out)
     return 0
 
 

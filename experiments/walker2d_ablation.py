@@ -33,6 +33,7 @@ import walker2d_common as common  # noqa: E402
 from matplotlib.ticker import EngFormatter  # noqa: E402
 
 from wcac_jax import plot  # noqa: E402
+from wcac_jax.outputs import write_atomic  # noqa: E402
 from wcac_jax.sweep import SweepConfig  # noqa: E402
 
 PREF = (0.9, 0.1)
@@ -131,7 +132,7 @@ def main(argv=None) -> int:
         common.fail(f"--seeds must be >= 1, got {args.seeds}")
     base = common.train_config(args.config, num_envs=args.envs_per_pref)
     steps = common.steps_per_pref(args.scale, args.steps_per_pref)
-    common.make_out(args.out, args.resume)
+    out = common.make_out(args.out, args.resume, args.overwrite)
     window = common.smoothing_window(base.env_steps_per_iteration)
 
     result = {
@@ -163,9 +164,9 @@ def main(argv=None) -> int:
         )
         print(f"[walker2d_ablation] {name}: {args.seeds} seeds x {steps:,} env steps", flush=True)
         t0 = time.perf_counter()
-        front = common.sweep(config, os.path.join(args.out, name), args.chunks, args.resume)
+        front = common.sweep(config, os.path.join(out, name), args.chunks, args.resume)
         wall = time.perf_counter() - t0
-        curves = np.load(os.path.join(args.out, name, "curves.npz"))
+        curves = np.load(os.path.join(out, name, "curves.npz"))
         fwd = curves["train/episode_return"][..., 0]  # [seeds, T]
         smoothed = np.stack([plot.moving_average(y, window) for y in fwd])
         tail = max(1, fwd.shape[1] // 20)  # the last 5% of iterations
@@ -186,9 +187,9 @@ def main(argv=None) -> int:
             }
         )
 
-    write_figure(args.out, result, args.fixed_width, args.fixed_depth)
-    with open(os.path.join(args.out, "ablation.json"), "w") as f:
-        json.dump(result, f, indent=2)
+    write_figure(out, result, args.fixed_width, args.fixed_depth)
+    # atomic: an interrupted write leaves the file as it was
+    write_atomic(os.path.join(out, "ablation.json"), json.dumps(result, indent=2).encode())
 
     print("| depth | width | eval forward return (mean ± sd) | train forward (last 5%) |")
     print("|---|---|---|---|")
@@ -199,6 +200,7 @@ def main(argv=None) -> int:
             f"{s['eval_forward_std']:.1f} | {tf.mean():.1f} ± "
             f"{tf.std(ddof=1) if len(tf) > 1 else 0.0:.1f} |"
         )
+    common.finish_out(out, args.out)
     print(f"wrote {args.out}")
     return 0
 

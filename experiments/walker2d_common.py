@@ -13,6 +13,7 @@ import inspect
 import json
 import math
 import os
+import shutil
 import sys
 
 import jax
@@ -20,7 +21,12 @@ import numpy as np
 
 from wcac_jax import cli, envs, pareto, presets
 from wcac_jax.algos import PaperConfig
-from wcac_jax.outputs import library_versions
+from wcac_jax.outputs import (
+    library_versions,
+    replace_dir,
+    staging_dir,
+    unwritable_dir,
+)
 from wcac_jax.sweep import (
     SweepConfig,
     SweepError,
@@ -84,6 +90,13 @@ def add_run_args(parser: argparse.ArgumentParser, out: str) -> None:
         action="store_true",
         help="continue an interrupted run in --out (finished sweeps are read, not rerun)",
     )
+    parser.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace the results in a non-empty --out (refused without it or --resume); "
+        "the run writes beside --out and replaces it when finished, so an interrupted run "
+        "leaves the old results as they were",
+    )
 
 
 def train_config(name: str, **changes) -> PaperConfig:
@@ -119,16 +132,40 @@ def smoothing_window(steps_per_iteration: int) -> int:
     return max(1, round(SMOOTH_STEPS / steps_per_iteration))
 
 
-def make_out(out: str, resume: bool = False) -> None:
-    """Creates the output directory, refusing a non-empty one (or, with `resume`, a
-    missing or empty one: there is nothing to continue)."""
+def make_out(out: str, resume: bool = False, overwrite: bool = False) -> str:
+    """Creates the directory the run writes to and returns it: `out`, refusing a
+    non-empty one (or, with `resume`, a missing or empty one: there is nothing to
+    continue); with `overwrite`, a fresh directory beside `out` (`staging_dir`) that
+    `finish_out` renames over it."""
+    if resume and overwrite:
+        fail("--resume continues the run in --out and --overwrite replaces it: give one")
     if resume:
         if not (os.path.isdir(out) and os.listdir(out)):
             fail(f"--resume: nothing to resume in --out {out!r}")
-        return
+        return out
+    if os.path.exists(out) and not os.path.isdir(out):
+        fail(f"--out {out!r} exists and is not a directory")
+    if overwrite:
+        work = staging_dir(out)
+        shutil.rmtree(work, ignore_errors=True)  # an earlier, interrupted try's
+        problem = unwritable_dir(work)
+        if problem:
+            fail(f"--overwrite: --out {out!r} can't be replaced ({problem})")
+        os.makedirs(work)
+        return work
     if os.path.exists(out) and os.listdir(out):
-        fail(f"--out {out!r} is not empty (use --resume to continue an interrupted run)")
+        fail(
+            f"--out {out!r} is not empty (--resume continues an interrupted run, "
+            "--overwrite replaces it)"
+        )
     os.makedirs(out, exist_ok=True)
+    return out
+
+
+def finish_out(work: str, out: str) -> None:
+    """Puts the finished results in place: `work` (`make_out`'s) renamed over `out`."""
+    if os.path.abspath(work) != os.path.abspath(out):
+        replace_dir(work, out)
 
 
 def sweep(config: SweepConfig, out: str, chunks: int, resume: bool = False) -> dict:

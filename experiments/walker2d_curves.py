@@ -33,6 +33,7 @@ import walker2d_common as common  # noqa: E402
 from matplotlib.ticker import EngFormatter  # noqa: E402
 
 from wcac_jax import plot  # noqa: E402
+from wcac_jax.outputs import write_atomic  # noqa: E402
 from wcac_jax.sweep import SweepConfig  # noqa: E402
 
 PREF = (1.0, 0.0)
@@ -79,7 +80,7 @@ def main(argv=None) -> int:
         common.fail(f"--seeds must be >= 1, got {args.seeds}")
     bases = {name: common.train_config(name, num_envs=args.envs_per_pref) for name in args.configs}
     steps = common.steps_per_pref(args.scale, args.steps_per_pref)
-    common.make_out(args.out, args.resume)
+    out = common.make_out(args.out, args.resume, args.overwrite)
 
     result = {
         "pref": list(PREF),
@@ -103,9 +104,9 @@ def main(argv=None) -> int:
         )
         print(f"[walker2d_curves] {name}: {args.seeds} seeds x {steps:,} env steps", flush=True)
         t0 = time.perf_counter()
-        front = common.sweep(config, os.path.join(args.out, name), args.chunks, args.resume)
+        front = common.sweep(config, os.path.join(out, name), args.chunks, args.resume)
         wall = time.perf_counter() - t0
-        with np.load(os.path.join(args.out, name, "curves.npz")) as curves:
+        with np.load(os.path.join(out, name, "curves.npz")) as curves:
             forward = curves["train/episode_return"][..., 0]  # [seeds, T]
             env_steps = curves["train/env_steps"][0]
         window = common.smoothing_window(base.env_steps_per_iteration)
@@ -128,9 +129,10 @@ def main(argv=None) -> int:
                 f"  forward return {pol['forward_return']:8.1f}, length "
                 f"{pol['episode_length']:5.1f}, speed {speed:+.3f} m/s"
             )
-    with open(os.path.join(args.out, "curves.json"), "w") as f:
-        json.dump(result, f, indent=2)
-    write_figure(args.out, result)
+    # atomic: an interrupted write leaves the file as it was
+    write_atomic(os.path.join(out, "curves.json"), json.dumps(result, indent=2).encode())
+    write_figure(out, result)
+    common.finish_out(out, args.out)
     print(f"wrote {args.out}")
     return 0
 

@@ -47,6 +47,7 @@ import numpy as np  # noqa: E402
 import walker2d_common as common  # noqa: E402
 
 from wcac_jax import cli, pareto, plot, presets  # noqa: E402
+from wcac_jax.outputs import write_atomic  # noqa: E402
 from wcac_jax.sweep import PAPER_PREFS, SweepError  # noqa: E402
 
 HV_REF_RULE = (
@@ -124,8 +125,8 @@ def finish(out: str, summary: dict) -> None:
     summary["hv_ref_rule"] = HV_REF_RULE
     summary["union_nondominated"] = union_nondominated(summary)
     write_figures(out, summary)
-    with open(os.path.join(out, "summary.json"), "w") as f:
-        json.dump(summary, f, indent=2)
+    # atomic: an interrupted write leaves the file as it was
+    write_atomic(os.path.join(out, "summary.json"), json.dumps(summary, indent=2).encode())
 
 
 def resummarize(out: str) -> None:
@@ -203,7 +204,7 @@ def main(argv=None) -> int:
             common.fail(err)
     if note is not None:
         print(f"[walker2d_front] note: {note}", flush=True)
-    common.make_out(args.out, args.resume)
+    out = common.make_out(args.out, args.resume, args.overwrite)
 
     summary = {
         "config_name": args.config,
@@ -221,7 +222,7 @@ def main(argv=None) -> int:
         "directions": {},
     }
     for direction, config in configs.items():
-        run_dir = os.path.join(args.out, direction)
+        run_dir = os.path.join(out, direction)
         print(f"[walker2d_front] {direction}: 9 preferences x {steps:,} env steps", flush=True)
         t0 = time.perf_counter()
         front = common.sweep(config, run_dir, args.chunks, args.resume)
@@ -245,7 +246,8 @@ def main(argv=None) -> int:
                 )
             )
 
-    finish(args.out, summary)
+    finish(out, summary)
+    common.finish_out(out, args.out)
     print(f"wrote {args.out}")
     return 0
 

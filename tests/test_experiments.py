@@ -64,7 +64,15 @@ def test_bench_throughput_quick_writes_every_field(tmp_path):
         assert key in result, key
     for part in ("raw", "sweep", "sequential"):
         assert result[part]["env_steps_per_s"] > 0 and result[part]["compile_s"] > 0
-    assert result["sweep_over_raw"] > 0 and result["sweep_over_sequential"] > 0
+    # the ratios are of the measured rates, and the step's time splits into its parts
+    rate = {part: result[part]["env_steps_per_s"] for part in ("raw", "sweep", "sequential")}
+    assert result["sweep_over_raw"] == pytest.approx(rate["sweep"] / rate["raw"], rel=1e-12)
+    assert result["sweep_over_sequential"] == pytest.approx(
+        rate["sweep"] / rate["sequential"], rel=1e-12
+    )
+    ms = result["ms_per_env_step"]
+    assert ms["physics"] + ms["networks"] == pytest.approx(1e3 / rate["sweep"], rel=1e-9)
+    assert (result["P"], result["N"]) == (3, 4)  # --quick's sizes
     assert "(b)/(a)" in proc.stdout
 
 
@@ -135,6 +143,48 @@ def test_pareto_exploration_quick_writes_its_schema(tmp_path):
             assert key in summary, key
         assert len(summary["points"]) == 3
     assert (tmp_path / "exploration.png").stat().st_size > 1000
+    # values, recomputed from the saved points by independent code (pymoo's HV, the
+    # bandit's reward (1 - sin, 1 - cos) of the saved angles)
+    from pymoo.indicators.hv import HV
+
+    for summary in bandit["directions"].values():
+        theta, points = np.array(summary["theta"]), np.array(summary["points"])
+        # (the reward is float32)
+        expected = np.stack([1 - np.sin(theta), 1 - np.cos(theta)], 1)
+        np.testing.assert_allclose(points, expected, rtol=0, atol=1e-6)
+        np.testing.assert_allclose(
+            summary["theta_error"], np.abs(theta - np.array(bandit["wc_optimum_theta"])), atol=1e-12
+        )
+        inside = points[np.all(points > 0, axis=1)]
+        hv = HV(ref_point=np.zeros(2))(-inside) if len(inside) else 0.0
+        ratio = hv / bandit["exact_front_hypervolume"]
+        assert summary["hypervolume_ratio"] == pytest.approx(ratio, rel=1e-9)
+    for summary in dst["directions"].values():
+        points = np.array(summary["points"])
+        ref = np.array(dst["hv_ref"])
+        inside = points[np.all(points > ref, axis=1)]
+        hv = HV(ref_point=-ref)(-inside) if len(inside) else 0.0
+        assert summary["hypervolume"] == pytest.approx(hv, rel=1e-9)
+    _assert_out_kept("pareto_exploration.py", tmp_path)
+
+
+def _assert_out_kept(script, out):
+    """`script` refuses the non-empty `out` (a file added to the results makes no
+    difference) without `--overwrite`: exit 2, one line, every file as it was."""
+    (out / "notes.txt").write_text("mine")
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    proc = subprocess.run(
+        [sys.executable, os.path.join(ROOT, "experiments", script), "--quick"]
+        + ["--out", str(out)],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert proc.returncode == 2
+    assert proc.stderr.splitlines() == [
+        f"error: --out {str(out)!r} is not empty (--overwrite replaces it)"
+    ]
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
 
 
 @pytest.mark.parametrize(
@@ -184,7 +234,17 @@ def test_convergence_rate_quick_writes_its_schema(tmp_path):
             ):
                 assert key in p, key
             assert p["initial_gap"] > 0  # the initial policy is not optimal
+            # the summaries are what the measured gaps give
+            assert (p["initial_gap"], p["final_gap"]) == (p["gap"][0], p["gap"][-1])
+            assert p["final_over_initial"] == pytest.approx(p["gap"][-1] / p["gap"][0])
+            assert len(p["gap"]) == len(res["t"])
     assert (tmp_path / "convergence.png").stat().st_size > 1000
+    _assert_out_kept("convergence_rate.py", tmp_path)
+    # --overwrite: the new results replace the old, nothing beside them
+    _run("convergence_rate.py", "--quick", "--out", str(tmp_path), "--overwrite")
+    assert sorted(os.listdir(tmp_path)) == ["convergence.json", "convergence.png"]
+    assert not [n for n in os.listdir(tmp_path.parent) if n.startswith(f".{tmp_path.name}.")]
+    assert json.loads((tmp_path / "convergence.json").read_text()) == result
 
 
 def test_walker2d_policy_summary_by_hand():
@@ -346,6 +406,8 @@ def test_named_configs_keep_the_paper_setting_apart():
         (walker2d_ablation, ["--seeds", "0"], "--seeds must be >= 1, got 0"),
         (walker2d_ablation, ["--steps-per-pref", "-5"], "got -5"),
         (walker2d_front, ["--resume"], "--resume: nothing to resume"),
+        (walker2d_front, ["--resume", "--overwrite"], "--resume continues the run in --out"),
+        (walker2d_front, ["--select-every", "2048"], "--select-every 2048 spaces"),
         (walker2d_front, ["--j-ub", "400,x"], "--j-ub '400,x'"),
         (walker2d_front, ["--config", "practical", "--j-ub", "1e39,1"], "finite"),
         (walker2d_front, ["--utopia-margin", "0.02"], "does not apply to --config paper"),
@@ -369,6 +431,20 @@ def test_walker2d_scripts_reject_bad_input(tmp_path, capsys, script, args, named
     with pytest.raises(SystemExit) as exc:
         script.main([*args, "--out", str(out)])
     _assert_refused(exc.value.code, capsys.readouterr().err, named, out)
+
+
+@pytest.mark.parametrize("script", [walker2d_front, walker2d_ablation])
+def test_walker2d_scripts_refuse_a_non_empty_out(tmp_path, capsys, script):
+    (tmp_path / "notes.txt").write_text("mine")
+    with pytest.raises(SystemExit) as exc:
+        script.main(["--out", str(tmp_path)])
+    assert exc.value.code == 2
+    assert capsys.readouterr().err.splitlines() == [
+        f"error: --out {str(tmp_path)!r} is not empty (--resume continues an interrupted "
+        "run, --overwrite replaces it)"
+    ]
+    assert [p.name for p in tmp_path.iterdir()] == ["notes.txt"]
+    assert (tmp_path / "notes.txt").read_text() == "mine"
 
 
 def _assert_refused(status, stderr, named, out, expected_status=2):
@@ -527,3 +603,33 @@ def test_walker2d_ablation_tiny(tmp_path):
     (tmp_path / "ablation.png").unlink()
     _run("walker2d_ablation.py", "--plot-only", "--out", str(tmp_path))  # redraws only
     assert (tmp_path / "ablation.png").stat().st_size > 1000
+
+
+@pytest.mark.slow
+def test_walker2d_film_of_a_padded_two_device_run_with_a_choice(tmp_path):
+    """3 preferences on 2 host devices (4 rows, the last repeated) with a choice among
+    each one's last 3 policies: the film shows the 3 chosen policies."""
+    run = tmp_path / "run"
+    proc = subprocess.run(
+        [sys.executable, "-m", "wcac_jax.sweep", "--env", "walker2d", *C_ENGINE]
+        + ["--preset", "paper", "--n-prefs", "3", "--envs-per-pref", "4", "--width", "16"]
+        + ["--depth", "1", "--critic-steps", "2", "--rollout-steps", "4"]
+        + ["--steps-per-pref", "168", "--select-last", "3", "--select-every", "24"]
+        + ["--eval-episodes", "1", "--quiet", "--out", str(run)],
+        capture_output=True,
+        text=True,
+        timeout=900,
+        env={**os.environ, "XLA_FLAGS": "--xla_force_host_platform_device_count=2"},
+    )
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    front = json.loads((run / "front.json").read_text())
+    assert len(front["devices"]) == 2 and front["chosen_iteration"]
+    out = tmp_path / "film"
+    proc = _run(
+        "walker2d_film.py",
+        *("--run", str(run), "--out", str(out), "--steps", "8", "--every", "4"),
+        *("--columns", "2", "--size", "32"),
+    )
+    film = json.loads((out / "film.json").read_text())
+    assert [p["pref"] for p in film["policies"]] == [row["pref"] for row in front["prefs"]]
+    assert len([line for line in proc.stdout.splitlines() if line.startswith("p = ")]) == 3

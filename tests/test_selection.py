@@ -4,6 +4,8 @@ recorded regrets give, chunking and resume invariant, `load_sweep` returning it.
 
 import json
 import os
+import subprocess
+import sys
 
 import jax
 import jax.numpy as jnp
@@ -126,8 +128,20 @@ def test_the_choice_is_the_least_recorded_regret(chosen_run):
     # without the choice (same keys), one that chose another policy as that policy
     with np.load(os.path.join(out, "curves.npz")) as a:
         curves = {k: a[k] for k in a.files}
+    assert front["selection_utopia"] == sel["utopia"]
+    assert front["chosen_iteration"] == sel["chosen_iteration"]
     for p, (row, base) in enumerate(zip(front["prefs"], plain["prefs"], strict=True)):
-        assert row["j_hat"] == base["j_hat"] and row["lambda"] == base["lambda"]
+        # each row's training metrics are its chosen iteration's, beside its returns
+        t = sel["chosen_iteration"][p]
+        assert row["iteration"] == t and base["iteration"] == 25
+        assert row["lambda"] == curves["train/weights"][p, t - 1].tolist()
+        assert row["j_hat"] == curves["train/j_hat"][p, t - 1].tolist()
+        assert row["g_mu"] == float(curves["train/g_mu"][p, t - 1])
+        assert row["train_episode_return"] == curves["train/episode_return"][p, t - 1].tolist()
+        if t == 25:
+            assert row["j_hat"] == base["j_hat"] and row["lambda"] == base["lambda"]
+        else:
+            assert row["j_hat"] != base["j_hat"], p  # not the final iteration's
         assert sel["final_return"][p] == base["return"], p  # the front without the choice
         assert sel["final_length"][p] == base["episode_length"], p
         if sel["chosen_iteration"][p] == 25:
@@ -143,10 +157,21 @@ def test_the_choice_is_the_same_however_chunked_or_resumed(chosen_run, tmp_path)
     out = str(tmp_path / "resumed")
     first = sweep.run_sweep(_config(*SELECT), out, chunks=7, progress=False, stop_after_chunks=6)
     assert first["interrupted"] and 17 <= first["iterations_done"] < 25  # mid-candidates
+    with open(os.path.join(out, "timing.json")) as f:
+        part = json.load(f)  # the first part's clocks, as its last checkpoint left them
+    assert part["iteration"] == first["iterations_done"] and part["parts"] == 1
+    assert part["env_steps_timed"] == first["iterations_done"] * 48 * 4 and part["train_s"] > 0
     resumed = sweep.run_sweep(_config(*SELECT), out, chunks=7, resume=True, progress=False)
     for other in (one, resumed):
         assert other["selection"] == front["selection"]
         assert [r["return"] for r in other["prefs"]] == [r["return"] for r in front["prefs"]]
+    # the whole run's clocks: both parts, every env step timed
+    assert (resumed["parts"], resumed["timed_from_iteration"]) == (2, 0)
+    assert resumed["train_s"] > part["train_s"] and resumed["wall_s"] > part["wall_s"]
+    assert resumed["compile_s"] > part["compile_s"]
+    steps = resumed["env_steps_total"]
+    assert resumed["env_steps_per_s"] * resumed["train_s"] == pytest.approx(steps, rel=1e-9)
+    assert (one["parts"], one["timed_from_iteration"]) == (1, 0)
 
 
 def test_load_sweep_returns_the_chosen_policies(chosen_run):
@@ -164,3 +189,81 @@ def test_load_sweep_returns_the_chosen_policies(chosen_run):
     np.testing.assert_allclose(got, [r["return"] for r in front["prefs"]], rtol=1e-6)
     with open(os.path.join(out, "config.json")) as f:
         assert json.load(f)["select_last"] == 3
+
+
+def test_the_criterion_is_the_runs_own():
+    paper = _config().train
+    assert selection.criterion(paper) == selection.Criterion("wc", 0.1, 1.0, paper.mu)
+    practical = cli.config_from_args(
+        cli.build_parser().parse_args(
+            ["--env", "concave_bandit", "--preset", "practical", "--utopia-margin", "0.02"]
+            + ["--utopia-min-spread", "3", "--scalarization", "linear", "--quiet"]
+        )
+    ).train
+    assert selection.criterion(practical) == selection.Criterion("linear", 0.02, 3.0, practical.mu)
+    assert selection.criterion(practical.replace(scalarization="smooth_wc")).score == "wc"
+    # linear: the candidate of the largest p . J, whatever the utopia point
+    returns = jnp.array([[[4.0, 0.0]], [[1.0, 2.5]], [[2.0, 2.0]]])  # [K, P, m]
+    index, _, scores = selection.choose(returns, jnp.array([[0.5, 0.5]]), score="linear")
+    np.testing.assert_allclose(scores[:, 0], [-2.0, -1.75, -2.0])
+    assert int(index[0]) == 2  # a tie of candidates 0 and 2: the later
+    index, _, _ = selection.choose(returns, jnp.array([[0.5, 0.5]]))  # wc: (2, 2) closest
+    assert int(index[0]) == 2
+
+
+# the practical update on the bandit: 640 env steps per iteration, 8 iterations
+PRACTICAL = ["--env", "concave_bandit", "--preset", "practical", "--envs-per-pref", "8"]
+PRACTICAL += ["--steps-per-pref", "5120", "--eval-episodes", "2", "--n-prefs", "5", "--quiet"]
+
+
+def test_a_linear_run_chooses_by_its_linear_score_and_its_own_utopia(tmp_path):
+    args = [*PRACTICAL, "--scalarization", "linear", "--utopia-margin", "0.5"]
+    args += ["--utopia-min-spread", "2", "--select-last", "4", "--select-every", "640"]
+    config = cli.config_from_args(cli.build_parser().parse_args(args))
+    front = sweep.run_sweep(config, str(tmp_path / "run"), chunks=2, progress=False)
+    sel = front["selection"]
+    assert (sel["score"], sel["margin"], sel["min_spread"]) == ("linear", 0.5, 2.0)
+    returns = np.array(sel["candidate_return"])  # [K, P, m]
+    flat = returns.reshape(-1, 2)
+    z = flat.max(0) + 0.5 * np.maximum(np.ptp(flat, 0), 2.0)
+    np.testing.assert_allclose(sel["utopia"], z, rtol=1e-6)
+    assert front["selection_utopia"] == sel["utopia"]
+    prefs = np.array([row["pref"] for row in front["prefs"]])
+    score = -np.sum(prefs[None] * returns, axis=-1)  # [K, P]
+    np.testing.assert_allclose(sel["regret"], score, rtol=1e-5, atol=1e-6)
+    for p, it in enumerate(sel["chosen_iteration"]):
+        k = sel["candidate_iterations"].index(it)
+        assert score[k, p] <= score[:, p].min() + 1e-6
+    # the weighted-Chebyshev choice would differ on this run (else this checks nothing)
+    wc = np.max(prefs[None] * (z - returns), axis=-1)
+    by_wc = [len(wc) - 1 - int(np.argmin(wc[::-1, p])) for p in range(len(prefs))]
+    chosen = [sel["candidate_iterations"].index(it) for it in sel["chosen_iteration"]]
+    assert chosen != by_wc, (chosen, by_wc)
+
+
+def test_load_sweep_of_a_padded_two_device_run_with_a_choice(tmp_path):
+    """3 preferences on 2 devices run 4 rows (the last repeated): `load_sweep` chooses
+    over the rows the sweep ran, as it did, and returns the 3 real ones."""
+    out = str(tmp_path / "run")
+    proc = subprocess.run(
+        [sys.executable, "-m", "wcac_jax.sweep", *TINY_BANDIT, "--n-prefs", "3"]
+        + ["--actor-lr", "0.05", *SELECT, "--quiet", "--out", out],
+        capture_output=True,
+        text=True,
+        env={**os.environ, "XLA_FLAGS": "--xla_force_host_platform_device_count=2"},
+    )
+    assert proc.returncode == 0, proc.stderr
+    with open(os.path.join(out, "front.json")) as f:
+        front = json.load(f)
+    assert len(front["devices"]) == 2 and len(front["prefs"]) == 3
+    run = sweep.load_sweep(out)
+    np.testing.assert_array_equal(run.state.iteration, [25] * 3)
+    np.testing.assert_array_equal(run.chosen.iteration, front["chosen_iteration"])
+    assert jax.tree.leaves(run.chosen)[0].shape[0] == 3
+    from wcac_jax.algos import make_evaluate
+
+    evaluate = make_evaluate(run.config.train_config(), run.env, run.config.eval_episodes)
+    keys = jax.vmap(lambda i: jax.random.fold_in(jax.random.key(run.config.seed), i))(jnp.arange(3))
+    keys = jax.vmap(lambda k: jax.random.fold_in(k, 1 << 30))(keys)
+    got = jax.jit(jax.vmap(evaluate))(run.chosen, keys)["eval/return"]
+    np.testing.assert_allclose(got, [r["return"] for r in front["prefs"]], rtol=1e-5)

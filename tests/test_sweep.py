@@ -5,6 +5,7 @@ import io
 import json
 import os
 import re
+import shutil
 import signal
 import subprocess
 import sys
@@ -274,6 +275,12 @@ BAD = [
     (["--select-last", "2", "--select-every", "-1"], "select_every must be a non-negative .*-1"),
     # 1200 env steps are 25 iterations of 48: 2 candidates 30 iterations apart don't fit
     (["--select-last", "2", "--select-every", "1440"], "need more than 30 .* the sweep has 25"),
+    # one candidate (the bandit's default, the final policy): a spacing would be ignored
+    (["--select-every", "20480"], "--select-every 20480 spaces .* it would be ignored"),
+    (["--select-last", "1", "--select-every", "96"], "--select-every 96 spaces"),
+    # checked before the preferences are made (a numpy MemoryError before)
+    (["--n-prefs", "1000000000"], r"--n-prefs 1,000,000,000 needs at least .* GiB .* has"),
+    (["--resume", "--overwrite"], "--resume continues the sweep in --out and --overwrite"),
 ]
 
 
@@ -359,6 +366,97 @@ def test_resume_with_a_corrupt_config_exits_2(tmp_path, capsys, text):
     assert rc == 2 and len(err.strip().splitlines()) == 1, err
     assert "config.json" in err and ("not readable JSON" in err or "no sweep config" in err)
     assert _tree(out) == before
+
+
+def _contents(path):
+    """Every file under `path` with its bytes."""
+    return {name: open(os.path.join(path, name), "rb").read() for name in _tree(path)}
+
+
+def test_a_non_empty_out_is_refused_without_resume_or_overwrite(tiny_run, tmp_path, capsys):
+    before = _contents(tiny_run)
+    rc = cli.main([*TINY, "--n-prefs", "4", "--seed", "1", "--out", tiny_run])
+    err = capsys.readouterr().err
+    assert rc == 2 and err.splitlines() == [
+        f"error: --out {tiny_run!r} is not empty (--resume continues its sweep, --overwrite "
+        "replaces it)"
+    ]
+    assert _contents(tiny_run) == before
+    other = tmp_path / "other"  # any file makes a directory not empty
+    other.mkdir()
+    (other / "notes.txt").write_text("mine")
+    rc = cli.main([*TINY, "--n-prefs", "2", "--out", str(other)])
+    assert rc == 2 and "is not empty" in capsys.readouterr().err
+    assert _contents(other) == {"notes.txt": b"mine"}
+
+
+def test_overwrite_replaces_the_results_only_once_finished(tiny_run, tmp_path, capsys):
+    out = str(tmp_path / "run")
+    shutil.copytree(tiny_run, out)
+    with open(os.path.join(out, "notes.txt"), "w") as f:
+        f.write("old")
+    before = _contents(out)
+    args = [*TINY, "--n-prefs", "4", "--chunks", "3", "--seed", "1"]
+    config = cli.config_from_args(cli.build_parser().parse_args(args))
+    # interrupted: the old results stay as they were; the partial run is beside them
+    stopped = sweep.run_sweep(
+        config, out, overwrite=True, chunks=3, progress=False, stop_after_chunks=1
+    )
+    assert stopped["interrupted"]
+    assert _contents(out) == before
+    staging = sweep.staging_dir(out)
+    assert os.path.dirname(staging) == str(tmp_path) and os.listdir(staging)
+    # finished: the new sweep in place of the old, and nothing of the old left
+    rc = cli.main([*args, "--out", out, "--overwrite"])
+    assert rc == 0, capsys.readouterr().err
+    assert sorted(os.listdir(tmp_path)) == ["run"]
+    assert "notes.txt" not in os.listdir(out)
+    front, _ = _load(out)
+    assert front["config"]["seed"] == 1
+    fresh = sweep.run_sweep(config, str(tmp_path / "fresh"), chunks=3, progress=False)
+    assert [r["return"] for r in front["prefs"]] == [r["return"] for r in fresh["prefs"]]
+
+
+def test_front_json_is_written_last(tiny_run, tmp_path, monkeypatch):
+    """`front.json` marks a sweep finished (`--resume` then has nothing to do), so a
+    write interrupted before it leaves none, and `--resume` writes them all."""
+    from wcac_jax import outputs, plot
+
+    front, curves = _load(tiny_run)
+    out = tmp_path / "out"
+    out.mkdir()
+
+    def broken(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(plot, "plot_front", broken)
+    with pytest.raises(KeyboardInterrupt):
+        metrics = {k: v for k, v in curves.items() if k.startswith("train/")}
+        outputs.write_outputs(str(out), front, metrics, curves["prefs"])
+    assert sorted(os.listdir(out)) == ["curves.npz", "front.csv"]  # no temporaries either
+
+
+def test_a_budget_that_rounds_says_what_runs(capsys):
+    """1 env step per preference is one iteration of N (K + L) = 8 (4 + 2) = 48: a note
+    states the budget that runs; a budget of whole iterations gets none."""
+    for steps, note in [
+        ("1", "1 env steps per preference round up to 1 iterations of 48: training runs 48"),
+        (
+            "1000",
+            "1,000 env steps per preference round up to 21 iterations of 48: training runs 1,008",
+        ),
+    ]:
+        args = [*TINY_BANDIT, "--n-prefs", "2", "--steps-per-pref", steps]
+        config = cli.config_from_args(cli.build_parser().parse_args(args))
+        assert config.num_iterations * 48 == int(note.rsplit(" ", 1)[1].replace(",", ""))
+        assert capsys.readouterr().err.splitlines() == [f"note: {note}"]
+    args = [*TINY_BANDIT, "--n-prefs", "2", "--select-last", "3", "--select-every", "160"]
+    cli.config_from_args(cli.build_parser().parse_args(args))  # 1200 = 25 iterations
+    assert capsys.readouterr().err.splitlines() == [
+        "note: --select-every 160 rounds up to 4 iterations (192 env steps)"
+    ]
+    cli.config_from_args(cli.build_parser().parse_args([*TINY, "--steps-per-pref", "1"]))
+    assert capsys.readouterr().err == ""  # --quiet
 
 
 def test_unwritable_out_exits_2(tmp_path, capsys):

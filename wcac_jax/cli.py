@@ -18,7 +18,14 @@ import jax
 
 from wcac_jax import algos, distributed, envs, pareto, presets
 from wcac_jax.presets import PAPER_PREFS
-from wcac_jax.sweep import SweepConfig, SweepError, TrainingDiverged, make_env, run_sweep
+from wcac_jax.sweep import (
+    SweepConfig,
+    SweepError,
+    TrainingDiverged,
+    check_pref_count,
+    make_env,
+    run_sweep,
+)
 
 
 def _parse_prefs(text: str) -> tuple[tuple[float, ...], ...]:
@@ -270,7 +277,9 @@ def build_parser() -> argparse.ArgumentParser:
         "--steps-per-pref",
         type=int,
         default=None,
-        help="environment steps per preference (default: the environment's, see below)",
+        help="environment steps per preference (default: the environment's, see below); "
+        "training runs whole iterations, so a budget that is not a multiple of an "
+        "iteration's env steps is rounded up, with a note of the budget that runs",
     )
     add_config_flags(p)
     p.add_argument(
@@ -286,6 +295,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=0, help="random seed (0)")
     p.add_argument("--out", default=None, help="output directory (default: a new runs/<time>)")
     p.add_argument("--resume", action="store_true", help="continue the sweep in --out")
+    p.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace the results in a non-empty --out (without it or --resume, a "
+        "non-empty --out is refused); the new sweep runs beside it and replaces it once "
+        "finished, so an interrupted run leaves the old results as they were",
+    )
     p.add_argument(
         "--chunks",
         type=int,
@@ -341,6 +357,13 @@ def config_from_args(args) -> SweepConfig:
         train, name = defaults.config, f"{args.env}'s default ({defaults.preset})"
     train = apply_config_flags(args, train, name)
 
+    env_options = dict(defaults.env_options)
+    if args.physics is not None:
+        env_options["physics"] = args.physics
+    if args.episode_length is not None:
+        env_options["episode_length"] = args.episode_length
+    if args.engine is not None:
+        env_options["engine"] = args.engine
     if args.prefs is not None:
         prefs = _parse_prefs(args.prefs)
     elif args.n_prefs is None and args.preset == "paper":
@@ -349,19 +372,14 @@ def config_from_args(args) -> SweepConfig:
         n = presets.DEFAULT_N_PREFS if args.n_prefs is None else args.n_prefs
         if n < 1:
             raise SweepError(f"--n-prefs must be >= 1, got {n}")
-        m = int(make_env(SweepConfig(prefs=(), env=args.env)).num_objectives)
+        env = make_env(SweepConfig(prefs=(), env=args.env, env_options=env_options))
+        m = int(env.num_objectives)
+        check_pref_count(n, train, env)  # before the preferences are made
         try:
             grid = pareto.preference_lattice(m, n, exact=args.n_prefs is not None)
         except ValueError as err:
             raise SweepError(f"--n-prefs: {err}") from None
         prefs = tuple(tuple(float(x) for x in p) for p in grid)
-    env_options = dict(defaults.env_options)
-    if args.physics is not None:
-        env_options["physics"] = args.physics
-    if args.episode_length is not None:
-        env_options["episode_length"] = args.episode_length
-    if args.engine is not None:
-        env_options["engine"] = args.engine
     steps = defaults.steps_per_pref if args.steps_per_pref is None else args.steps_per_pref
     config = SweepConfig(
         prefs=prefs,
@@ -378,7 +396,30 @@ def config_from_args(args) -> SweepConfig:
     config, note = apply_selection_flags(args, config, defaults.selection_for(args.preset))
     if note is not None and not args.quiet:
         print(f"note: {note}", file=sys.stderr, flush=True)
+    note = budget_note(config)
+    if note is not None and not args.quiet:
+        print(f"note: {note}", file=sys.stderr, flush=True)
     return config
+
+
+def budget_note(config: SweepConfig) -> str | None:
+    """A line stating the env steps that run when `steps_per_pref` (or, with a choice,
+    `select_every`) is not a whole number of iterations and is rounded up; else `None`."""
+    per = config.train.env_steps_per_iteration
+    runs = config.num_iterations * per
+    parts = []
+    if runs != config.steps_per_pref:
+        parts.append(
+            f"{config.steps_per_pref:,} env steps per preference round up to "
+            f"{config.num_iterations:,} iterations of {per:,}: training runs {runs:,}"
+        )
+    if config.select_last > 1 and config.select_every % per:
+        every = -(-config.select_every // per)
+        parts.append(
+            f"--select-every {config.select_every:,} rounds up to {every:,} iterations "
+            f"({every * per:,} env steps)"
+        )
+    return "; ".join(parts) or None
 
 
 def apply_selection_flags(
@@ -399,6 +440,13 @@ def apply_selection_flags(
         "select_last": default[0] if args.select_last is None else args.select_last,
         "select_every": default[1] if args.select_every is None else args.select_every,
     }
+    if changes["select_last"] == 1:  # one candidate, the final policy: no spacing
+        if args.select_every:
+            raise SweepError(
+                f"--select-every {args.select_every} spaces the candidates of "
+                "--select-last K > 1; with one (the final policy) it would be ignored"
+            )
+        changes["select_every"] = 0
     return dataclasses.replace(config, **changes), None
 
 
@@ -435,8 +483,8 @@ def add_selection_flags(parser) -> None:
         "--select-every",
         type=int,
         default=None,
-        help="env steps between those K policies (needed with --select-last > 1; "
-        "default: the environment's)",
+        help="env steps between those K policies, rounded up to whole iterations (needed "
+        "with --select-last > 1, an error with one policy; default: the environment's)",
     )
 
 
@@ -501,6 +549,7 @@ def main(argv=None, *, every_core: bool | None = None) -> int:
             config,
             out,
             resume=args.resume,
+            overwrite=args.overwrite,
             chunks=args.chunks,
             progress=False if args.quiet else None,
         )

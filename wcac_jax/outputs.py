@@ -1,7 +1,8 @@
 """What a sweep writes: the front's summary (`front.json`) and its files.
 
-Every file is written atomically (to a temporary file beside it, then renamed), so an
-interrupted run never leaves a half-written result.
+Every file is written atomically (to a temporary file beside it, then renamed), and
+`front.json`, which marks a sweep finished, last, so an interrupted run never leaves a
+half-written result.
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ import io
 import json
 import os
 import platform
+import shutil
 import tempfile
 
 import jax
@@ -37,6 +39,37 @@ def write_atomic(path: str, data: bytes) -> None:
         if os.path.exists(tmp):
             os.unlink(tmp)
         raise
+
+
+def staging_dir(out: str) -> str:
+    """Where a run that replaces the results in `out` writes them first: a hidden
+    directory beside `out`, on the same file system, renamed over `out` once every file is
+    written (`replace_dir`), so that an interrupted run leaves `out` whole."""
+    parent, name = os.path.split(os.path.abspath(out))
+    return os.path.join(parent, f".{name}.overwrite")
+
+
+def replace_dir(new: str, out: str) -> None:
+    """Renames the finished directory `new` to `out` (`os.replace`), and removes the old
+    `out` once the new one is in place."""
+    old = new + "-old"
+    shutil.rmtree(old, ignore_errors=True)
+    if os.path.lexists(out):
+        os.replace(out, old)
+    os.replace(new, out)
+    shutil.rmtree(old, ignore_errors=True)
+
+
+def out_refusal(out: str, overwrite: bool) -> str | None:
+    """Why a run may not write its results to the directory `out` (one line), or `None`:
+    `out` is a file, or holds files and `overwrite` is not given, or can't be written.
+    Creates nothing."""
+    if os.path.exists(out) and not os.path.isdir(out):
+        return f"--out {out!r} exists and is not a directory"
+    if os.path.isdir(out) and os.listdir(out) and not overwrite:
+        return f"--out {out!r} is not empty (--overwrite replaces it)"
+    problem = unwritable_dir(os.path.dirname(os.path.abspath(out)))
+    return f"--out {out!r} can't be written ({problem})" if problem else None
 
 
 def unwritable_dir(path: str) -> str | None:
@@ -74,7 +107,9 @@ def json_bytes(obj) -> bytes:
     return (json.dumps(obj, indent=2, allow_nan=True) + "\n").encode()
 
 
-def summarize(config, env, prefs, j_ub, hv_ref, metrics, evaluation, timing) -> dict:
+def summarize(
+    config, env, prefs, j_ub, hv_ref, metrics, evaluation, timing, selection=None
+) -> dict:
     """The `front.json` content of a finished sweep.
 
     Args:
@@ -87,9 +122,18 @@ def summarize(config, env, prefs, j_ub, hv_ref, metrics, evaluation, timing) -> 
       evaluation: `eval/return`, `eval/discounted_return` `[P', m]`, `eval/length` `[P']`
         and, for an environment reporting its forward speed, `eval/x_velocity` `[P']`
         (`P' >= P`: rows past `P` are padding).
-      timing: `compile_s`, `train_s`, `wall_s`, `steps_this_run`.
+      timing: the whole sweep's clocks, over every part of a resumed one: `compile_s`,
+        `train_s`, `wall_s`, `env_steps_timed` (the env steps `train_s` measured),
+        `parts`, `timed_from_iteration` (the iteration they start from: 0 unless a part's
+        clocks were lost).
+      selection: with a choice among each preference's last policies, what
+        `wcac_jax.selection` records of it (its `chosen_iteration` and `utopia`); each
+        row's training metrics are then those of its chosen iteration.
     """
     n = prefs.shape[0]
+    num_iterations = metrics["train/weights"].shape[1]
+    # the iteration (a count of iterations done) whose policy each row reports
+    iteration = [num_iterations] * n if selection is None else selection["chosen_iteration"]
     returns = np.asarray(evaluation["eval/return"])[:n]
     disc = np.asarray(evaluation["eval/discounted_return"])[:n]
     length = np.asarray(evaluation["eval/length"])[:n]
@@ -98,60 +142,74 @@ def summarize(config, env, prefs, j_ub, hv_ref, metrics, evaluation, timing) -> 
     steps = int(metrics["train/env_steps"][0, -1])
     rows = []
     for i in range(n):
+        t = iteration[i] - 1  # the metrics of the reported policy's last iteration
         rows.append(
             {
                 "pref": prefs[i].tolist(),
                 "return": returns[i].tolist(),
                 "discounted_return": disc[i].tolist(),
                 "episode_length": float(length[i]),
-                "lambda": metrics["train/weights"][i, -1].tolist(),
-                "g_mu": float(metrics["train/g_mu"][i, -1]),
-                "scalarized": float(metrics["train/scalarized"][i, -1]),
-                "j_hat": metrics["train/j_hat"][i, -1].tolist(),
-                "train_episode_return": metrics["train/episode_return"][i, -1].tolist(),
+                "iteration": int(iteration[i]),
+                "lambda": metrics["train/weights"][i, t].tolist(),
+                "g_mu": float(metrics["train/g_mu"][i, t]),
+                "scalarized": float(metrics["train/scalarized"][i, t]),
+                "j_hat": metrics["train/j_hat"][i, t].tolist(),
+                "train_episode_return": metrics["train/episode_return"][i, t].tolist(),
                 "nondominated": bool(nd[i]),
                 "inside_hv_ref": not bool(outside[i]),
             }
         )
         if "eval/x_velocity" in evaluation:  # an environment reporting its forward speed
             rows[-1]["mean_x_velocity"] = float(np.asarray(evaluation["eval/x_velocity"])[i])
-    return {
+    front = {
         "env": config.env,
         "objective_names": list(env.objective_names),
         # the utopia point in use at the end (the sweep's own estimate, if it made one)
         "j_ub": (
             metrics["train/utopia"][0, -1].tolist() if "train/utopia" in metrics else list(j_ub)
         ),
-        "prefs": rows,
-        "hypervolume": pareto.hypervolume(returns, hv_ref),
-        "hypervolume_discounted": pareto.hypervolume(disc, hv_ref),
-        "hv_ref": list(hv_ref),
-        # preferences whose (undiscounted) returns do not strictly dominate hv_ref: they
-        # add nothing to the hypervolume
-        "outside_hv_ref": [i for i in range(n) if outside[i]],
-        "cardinality": pareto.cardinality(returns),
-        "sparsity": pareto.sparsity(returns),
-        "expected_utility": pareto.expected_utility(
-            returns, pareto.simplex_lattice(len(j_ub), 101)
-        ),
-        "env_steps_per_pref": steps,
-        "env_steps_total": steps * n,
-        "compile_s": timing["compile_s"],
-        "train_s": timing["train_s"],
-        "wall_s": timing["wall_s"],
-        # training throughput of this run (all preferences, compilation excluded); the
-        # steps of this process only, so a resumed run reports its own part
-        "env_steps_per_s": timing["steps_this_run"] / max(timing["train_s"], 1e-9),
-        "devices": [str(d) for d in jax.devices()],
-        "versions": library_versions(),
-        "config": config.to_dict(),
     }
+    if selection is not None:  # what the choice among the last policies used
+        front["selection_utopia"] = list(selection["utopia"])
+        front["chosen_iteration"] = list(selection["chosen_iteration"])
+    front.update(
+        {
+            "prefs": rows,
+            "hypervolume": pareto.hypervolume(returns, hv_ref),
+            "hypervolume_discounted": pareto.hypervolume(disc, hv_ref),
+            "hv_ref": list(hv_ref),
+            # preferences whose (undiscounted) returns do not strictly dominate hv_ref: they
+            # add nothing to the hypervolume
+            "outside_hv_ref": [i for i in range(n) if outside[i]],
+            "cardinality": pareto.cardinality(returns),
+            "sparsity": pareto.sparsity(returns),
+            "expected_utility": pareto.expected_utility(
+                returns, pareto.simplex_lattice(len(j_ub), 101)
+            ),
+            "env_steps_per_pref": steps,
+            "env_steps_total": steps * n,
+            # the whole sweep's clocks, summed over the parts of a resumed one
+            "compile_s": timing["compile_s"],
+            "train_s": timing["train_s"],
+            "wall_s": timing["wall_s"],
+            "parts": timing["parts"],
+            "timed_from_iteration": timing["timed_from_iteration"],
+            # training throughput (all preferences, compilation excluded): the env steps the
+            # training clock measured, over it
+            "env_steps_per_s": timing["env_steps_timed"] / max(timing["train_s"], 1e-9),
+            "devices": [str(d) for d in jax.devices()],
+            "versions": library_versions(),
+            "config": config.to_dict(),
+        }
+    )
+    if selection is not None:
+        front["selection"] = selection
+    return front
 
 
 def write_outputs(out, front, metrics, prefs) -> None:
-    """Writes `front.json`, `front.csv`, `curves.npz` and `front.png` to `out`, each
-    atomically."""
-    write_atomic(os.path.join(out, "front.json"), json_bytes(front))
+    """Writes `front.csv`, `curves.npz`, `front.png` and, last (it marks the sweep
+    finished), `front.json` to `out`, each atomically."""
     buf = io.StringIO()
     names = front["objective_names"]
     writer = csv.writer(buf)
@@ -181,3 +239,4 @@ def write_outputs(out, front, metrics, prefs) -> None:
     fig.savefig(png, format="png", dpi=120)
     plot.plt.close(fig)
     write_atomic(os.path.join(out, "front.png"), png.getvalue())
+    write_atomic(os.path.join(out, "front.json"), json_bytes(front))

@@ -1,4 +1,4 @@
-"""Each preference's reported policy chosen among its last few, by weighted Chebyshev.
+"""Each preference's reported policy chosen among its last few, by the run's own criterion.
 
 A sweep reports, per preference, the policy it ends with. On-policy training oscillates,
 and a Walker2d policy that ends a run falling in one evaluation episode in eight has often
@@ -9,17 +9,24 @@ keeps the policies at the `K` iterations
 
 evaluates each on the same `eval_episodes` start states per preference (keys distinct
 from the final evaluation's), and reports for preference `p` the candidate with the least
-weighted-Chebyshev regret of its evaluated undiscounted returns `J` (`[m]`),
+score of its evaluated undiscounted returns `J` (`[m]`) under the run's own
+scalarization (`criterion`): for `smooth_wc` (the method), `wc` and `mgda` the
+weighted-Chebyshev regret
 
-    scalarize.wc(J, p, z) = max_i p_i (z_i - J_i),
+    scalarize.wc(J, p, z) = max_i p_i (z_i - J_i)
 
-against one utopia point `z` for the whole sweep, estimated from every candidate of every
-preference by `wcac_jax.utopia`'s rule (`utopia.point`): `z_i = max J_i + margin * max(spread_i,
-min_spread)` with `spread_i = max J_i - min J_i` over all candidates and preferences.
-Ties go to the later candidate. The front is then evaluated afresh (`front.json`), on
-episodes the choice was not made on. Training is untouched: the choice changes only which
-of a preference's own policies is reported, at `K * eval_episodes` evaluation episodes
-per preference (the sweep records their env steps).
+(the limit of `smooth_wc` as `mu -> 0`), for `linear` its own score
+`scalarize.linear(J, p) = -sum_i p_i J_i`, for any other registered scalarization its
+`value(J, p, z, mu)`. `z` is one utopia point for the whole sweep, estimated from every
+candidate of every preference by `wcac_jax.utopia`'s rule (`utopia.point`): `z_i = max
+J_i + margin * max(spread_i, min_spread)` with `spread_i = max J_i - min J_i` over all
+candidates and preferences, the margin and spread floor the run's own
+(`PracticalConfig.utopia_margin`, `utopia_min_spread`; a configuration without them, the
+paper's, uses `MARGIN` and `MIN_SPREAD`). Ties go to the later candidate. The front is
+then evaluated afresh (`front.json`), on episodes the choice was not made on. Training
+is untouched: the choice changes only which of a preference's own policies is reported,
+at `K * eval_episodes` evaluation episodes per preference (the sweep records their env
+steps).
 
 The candidate iterations are fixed by the configuration (not by the chunking), so a sweep
 chooses the same policies however it is split into chunks or resumed.
@@ -30,6 +37,8 @@ holds the candidates on the host between chunks.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import chex
 import jax
 import jax.numpy as jnp
@@ -37,10 +46,54 @@ import numpy as np
 
 from wcac_jax import scalarize, utopia
 
-# `utopia_point`'s margin and spread floor: those of the practical preset's own estimate
-# (`PracticalConfig.utopia_margin`, `utopia_min_spread`)
+# `utopia_point`'s margin and spread floor where the run's configuration has none (the
+# paper's): the practical preset's defaults (`PracticalConfig.utopia_margin`,
+# `utopia_min_spread`)
 MARGIN = 0.1
 MIN_SPREAD = 1.0
+# scalarizations whose choice is scored by the hard weighted Chebyshev: `smooth_wc` is its
+# smoothing, and MGDA has no scalarization of its own (its progress is reported with
+# `smooth_wc`)
+_BY_WC = ("smooth_wc", "wc", "mgda")
+
+
+class Criterion(NamedTuple):
+    """What a sweep's choice scores its candidates by (`criterion`).
+
+    Attributes:
+      score: a registered scalarization (`wcac_jax.scalarize`), evaluated at each
+        candidate's returns and minimised.
+      margin: the utopia point's margin over the best return (`utopia_point`).
+      min_spread: the utopia point's least spread.
+      mu: the scalarization's temperature, for a score that takes one.
+    """
+
+    score: str = "wc"
+    margin: float = MARGIN
+    min_spread: float = MIN_SPREAD
+    mu: float = 1.0
+
+
+def criterion(train) -> Criterion:
+    """The choice's `Criterion` of a run whose per-preference training configuration is
+    `train` (a `PaperConfig` or `PracticalConfig`): its scalarization (`smooth_wc`,
+    `mgda`: the hard weighted Chebyshev), its utopia margin and spread floor."""
+    name = train.scalarization
+    return Criterion(
+        score="wc" if name in _BY_WC else name,
+        margin=float(getattr(train, "utopia_margin", MARGIN)),
+        min_spread=float(getattr(train, "utopia_min_spread", MIN_SPREAD)),
+        mu=float(train.mu),
+    )
+
+
+def rule(score: str) -> str:
+    """`front.json`'s words for the choice by `score`."""
+    if score == "wc":
+        return "least max_i p_i (z_i - J_i) over the candidates' evaluated returns J"
+    if score == "linear":
+        return "least -sum_i p_i J_i over the candidates' evaluated returns J"
+    return f"least {score}(J | p, z, mu) over the candidates' evaluated returns J"
 
 
 def candidate_iterations(num_iterations: int, last: int, every: int) -> tuple[int, ...]:
@@ -82,12 +135,17 @@ def choose(
     prefs: chex.Array,
     margin: float = MARGIN,
     min_spread: float = MIN_SPREAD,
+    score: str = "wc",
+    mu: float = 1.0,
 ) -> tuple[chex.Array, chex.Array, chex.Array]:
     """Each preference's candidate of least regret.
 
     Args:
       returns: `[K, P, m]` evaluated returns of candidate `k` of preference `p`.
       prefs: `[P, m]` preferences.
+      margin, min_spread: the utopia point's (`utopia_point`).
+      score: the registered scalarization the candidates are scored by (`Criterion`).
+      mu: its temperature, for a score that takes one.
 
     Returns:
       `(index [P], z [m], regrets [K, P])`: the chosen candidate per preference (the
@@ -95,9 +153,10 @@ def choose(
     """
     chex.assert_rank(returns, 3)
     z = utopia_point(returns, margin, min_spread)
-    # `scalarize.wc`: max_i p_i (z_i - J_i), per candidate and preference
-    regrets = jax.vmap(jax.vmap(scalarize.wc, in_axes=(0, 0, None)), in_axes=(0, None, None))(
-        returns, prefs, z
+    # e.g. `scalarize.wc`: max_i p_i (z_i - J_i), per candidate and preference
+    value = scalarize.get(score).value
+    regrets = jax.vmap(jax.vmap(value, in_axes=(0, 0, None, None)), in_axes=(0, None, None, None))(
+        returns, prefs, z, mu
     )
     k = returns.shape[0]
     index = k - 1 - jnp.argmin(regrets[::-1], axis=0)  # argmin's first = the latest
@@ -149,10 +208,21 @@ class Pool:
         for name, v in evaluation.items():
             self.tree[name][k] = np.asarray(v)
 
-    def choose(self, prefs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
-        """`(index [P], z [m], regrets [K, P], state)`: `choose` on the stored returns,
-        and the chosen state (leaves `[P, ...]`) of every row of `prefs` `[P, m]`."""
-        index, z, regrets = choose(jnp.asarray(self.tree["eval/return"]), jnp.asarray(prefs))
+    def choose(
+        self, prefs: np.ndarray, by: Criterion | None = None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
+        """`(index [P], z [m], regrets [K, P], state)`: `choose` by `by` on the stored
+        returns, and the chosen state (leaves `[P, ...]`) of every row of `prefs` `[P, m]`
+        (the rows the pool holds, padding included)."""
+        by = by or Criterion()
+        index, z, regrets = choose(
+            jnp.asarray(self.tree["eval/return"]),
+            jnp.asarray(prefs),
+            margin=by.margin,
+            min_spread=by.min_spread,
+            score=by.score,
+            mu=by.mu,
+        )
         index = np.asarray(index)
         state = self.treedef.unflatten(take(self.tree["states"], index))
         return index, np.asarray(z), np.asarray(regrets), state
@@ -165,18 +235,21 @@ class Pool:
         n: int,
         episodes: int,
         final: dict,
+        by: Criterion | None = None,
     ) -> dict:
         """What `front.json` records of the choice (`selection`), for the first `n` rows;
         `episodes` evaluation episodes per candidate; `final`: the final policies'
         evaluation on the reported episodes (`eval/return`, `eval/length`), the front the
-        sweep reports without the choice."""
+        sweep reports without the choice; `by`: the criterion the choice used."""
+        by = by or Criterion()
         length = np.asarray(self.tree["eval/length"])[:, :n]
         return {
-            "rule": "least max_i p_i (z_i - J_i) over the candidates' evaluated returns J",
+            "rule": rule(by.score),
+            "score": by.score,
             "candidate_iterations": list(self.iterations),
             "utopia": z.tolist(),
-            "margin": MARGIN,
-            "min_spread": MIN_SPREAD,
+            "margin": by.margin,
+            "min_spread": by.min_spread,
             "chosen_iteration": [self.iterations[int(k)] for k in index[:n]],
             "candidate_return": np.asarray(self.tree["eval/return"])[:, :n].tolist(),
             "candidate_length": length.tolist(),

@@ -28,6 +28,7 @@ writes are `wcac_jax.outputs` and `wcac_jax.checkpoint`, the choice among its la
 policies `wcac_jax.selection`.
 """
 
+from wcac_jax.outputs import staging_dir
 from wcac_jax.presets import PAPER_PREFS
 from wcac_jax.sweep.config import (
     MAX_ITERATIONS,
@@ -40,7 +41,7 @@ from wcac_jax.sweep.config import (
     validate_prefs,
 )
 from wcac_jax.sweep.load import LoadedSweep, load_sweep
-from wcac_jax.sweep.run import TrainingDiverged, run_sweep
+from wcac_jax.sweep.run import TrainingDiverged, check_pref_count, run_sweep
 from wcac_jax.sweep.training import make_chunk
 
 __all__ = [
@@ -52,10 +53,12 @@ __all__ = [
     "SweepError",
     "TrainingDiverged",
     "check_output_dir",
+    "check_pref_count",
     "default_hv_ref",
     "load_sweep",
     "make_chunk",
     "make_env",
     "run_sweep",
+    "staging_dir",
     "validate_prefs",
 ]

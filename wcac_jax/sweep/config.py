@@ -197,8 +197,11 @@ def _flatten(d: dict, prefix: str = "") -> dict:
     return out
 
 
-def check_output_dir(out: str, config: SweepConfig, resume: bool) -> None:
-    """Checks `out` can be written (creating nothing); on resume, that the config matches."""
+def check_output_dir(out: str, config: SweepConfig, resume: bool, overwrite: bool = False) -> None:
+    """Checks `out` can be written (creating nothing); on resume, that the config matches.
+    A non-empty `out` is refused unless `resume` (continue its sweep) or `overwrite`
+    (replace it, `run_sweep`: through a directory beside it, so its parent must be
+    writable)."""
     if resume:
         path = os.path.join(out, "config.json")
         if not os.path.isfile(path):
@@ -230,8 +233,16 @@ def check_output_dir(out: str, config: SweepConfig, resume: bool) -> None:
     if os.path.exists(out):
         if not os.path.isdir(out):
             raise SweepError(f"--out {out!r} exists and is not a directory")
-        if os.listdir(out):
-            raise SweepError(f"--out {out!r} is not empty (use --resume to continue a sweep)")
+        if os.listdir(out) and not overwrite:
+            raise SweepError(
+                f"--out {out!r} is not empty (--resume continues its sweep, --overwrite "
+                "replaces it)"
+            )
+        if overwrite:  # the new run is written beside `out`, then renamed over it
+            problem = unwritable_dir(os.path.dirname(os.path.abspath(out)))
+            if problem:
+                raise SweepError(f"--overwrite: --out {out!r} can't be replaced ({problem})")
+            return
         if not os.access(out, os.W_OK | os.X_OK):
             raise SweepError(f"--out {out!r} is not writable")
         return

@@ -68,9 +68,13 @@ def load_sweep(out: str) -> LoadedSweep:
     env = make_env(config)
     trainer = make_trainer(config.train_config(), env)
     n_prefs, n_iters = len(config.prefs), config.num_iterations
+    # the checkpoint's state and candidates hold the rows the sweep ran: the preferences
+    # padded to its device count by repeating the last (`wcac_jax.sweep.run._lay_out`)
+    rows = n_prefs + (-n_prefs % (config.device_count or 1))
     prefs = jnp.asarray(np.asarray(config.prefs, np.float32))
+    prefs = jnp.concatenate([prefs, jnp.repeat(prefs[-1:], rows - n_prefs, axis=0)])
     keys = jax.vmap(lambda i: jax.random.fold_in(jax.random.key(config.seed), i))(
-        jnp.arange(n_prefs)
+        jnp.minimum(jnp.arange(rows), n_prefs - 1)
     )
     # shapes only: nothing is initialised or traced through the environment twice
     state = jax.eval_shape(jax.vmap(trainer.init), keys, prefs)
@@ -88,10 +92,12 @@ def load_sweep(out: str) -> LoadedSweep:
         pool = selection.Pool(config.candidate_iterations, template["state"], found)
         template["selection"] = pool.tree
     restored = checkpoint.restore(manager, template)
-    state = jax.tree.map(jnp.asarray, restored["state"])
+    state = jax.tree.map(lambda x: jnp.asarray(x[:n_prefs]), restored["state"])
     metrics = with_env_steps(config.train_config(), restored["metrics"])
     chosen = None
     if pool is not None and int(restored["state"].iteration[0]) >= n_iters:
         pool.tree = restored["selection"]
-        chosen = jax.tree.map(jnp.asarray, pool.choose(np.asarray(prefs))[3])
+        # as the sweep chose: over every row, by the run's own criterion
+        picked = pool.choose(np.asarray(prefs), selection.criterion(config.train))[3]
+        chosen = jax.tree.map(lambda x: jnp.asarray(x[:n_prefs]), picked)
     return LoadedSweep(config, env, trainer, state, metrics, chosen)

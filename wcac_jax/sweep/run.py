@@ -13,9 +13,10 @@ from __future__ import annotations
 import json
 import math
 import os
+import shutil
 import sys
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Any, NamedTuple
 
 import jax
@@ -25,7 +26,14 @@ from jax.sharding import PartitionSpec as P
 
 from wcac_jax import checkpoint, distributed, selection
 from wcac_jax.algos import AnyConfig
-from wcac_jax.outputs import json_bytes, summarize, write_atomic, write_outputs
+from wcac_jax.outputs import (
+    json_bytes,
+    replace_dir,
+    staging_dir,
+    summarize,
+    write_atomic,
+    write_outputs,
+)
 from wcac_jax.runtime import TRACED_DIRECTIONS, resolve_j_ub, with_env_steps
 from wcac_jax.sweep.config import (
     SweepConfig,
@@ -36,7 +44,7 @@ from wcac_jax.sweep.config import (
     validate_prefs,
 )
 from wcac_jax.sweep.progress import Pace, Progress, note
-from wcac_jax.sweep.training import Programs, build_programs
+from wcac_jax.sweep.training import Programs, build_programs, state_bytes
 from wcac_jax.utopia import DEVICE_AXIS
 
 
@@ -49,6 +57,7 @@ def run_sweep(
     out: str | None = None,
     *,
     resume: bool = False,
+    overwrite: bool = False,
     chunks: int = 4,
     progress: bool | None = None,
     stop_after_chunks: int | None = None,
@@ -59,6 +68,9 @@ def run_sweep(
       config: the sweep.
       out: output directory (`None`: nothing is written and no checkpoints are kept).
       resume: continue the sweep checkpointed in `out`.
+      overwrite: replace the results in a non-empty `out`. The new sweep runs in a
+        directory beside it (`staging_dir(out)`) that replaces `out` once every file is
+        written, so an interrupted run leaves `out` as it was.
       chunks: the number of pieces the run is split into, with a checkpoint after each
         (and, in a log, a progress line).
       progress: force the progress display on/off (`None`: on); a bar on a terminal,
@@ -75,11 +87,19 @@ def run_sweep(
       TrainingDiverged: NaN during training (the last good checkpoint is kept).
     """
     plan = _prepare(config, chunks)
+    work = out  # where the run writes: `out`, or with `overwrite` a directory beside it
     if out is not None:
-        _on_writer(lambda: check_output_dir(out, plan.config, resume))
+        if resume and overwrite:
+            raise SweepError(
+                "--resume continues the sweep in --out and --overwrite replaces it: give one"
+            )
+        _on_writer(lambda: check_output_dir(out, plan.config, resume, overwrite=overwrite))
         finished = _finished(out) if resume else None
         if finished is not None:
             return finished
+        if overwrite:
+            work = staging_dir(out)
+            _on_writer(lambda: shutil.rmtree(work, ignore_errors=True))  # an earlier try's
     layout = _lay_out(plan)
     report = progress if distributed.is_writer() else False
     if jax.process_count() > 1 and progress is not False:
@@ -95,21 +115,18 @@ def run_sweep(
         report,
     )
     lowered, lower_s = _lower(plan, layout, programs, state)
-    run = _start(plan, layout, programs, state, lowered.out_info[1], out, resume)
+    run = _start(plan, layout, programs, state, lowered.out_info[1], work, resume)
     t0 = time.perf_counter()
     executable = lowered.compile()
-    compile_s = lower_s + time.perf_counter() - t0
-    wall_start = time.perf_counter()
+    run.compile_s = lower_s + time.perf_counter() - t0
+    run.wall_start = time.perf_counter()
     if not _train(plan, layout, programs, executable, run, report, stop_after_chunks):
         return {"interrupted": True, "iterations_done": run.done}
     evaluation, chosen = _evaluate(plan, layout, programs, run)
-    timing = {
-        "compile_s": compile_s,
-        "train_s": run.train_s,
-        "wall_s": time.perf_counter() - wall_start + compile_s,
-        "steps_this_run": run.steps_this_run,
-    }
-    return _finish(plan, out, run, evaluation, chosen, timing)
+    front = _finish(plan, work, run, evaluation, chosen, _timing(run))
+    if work != out and distributed.is_writer():
+        replace_dir(work, out)
+    return front
 
 
 class Plan(NamedTuple):
@@ -254,6 +271,12 @@ class _Run:
     done: int  # iterations done (every preference is at the same one)
     train_s: float = 0.0  # this run's seconds in the training program
     steps_this_run: int = 0  # this run's env steps (all preferences)
+    compile_s: float = 0.0  # this run's seconds lowering and compiling
+    wall_start: float = 0.0  # `time.perf_counter()` when this run's training began
+    # the clocks of the earlier parts of a resumed sweep (`TIMING`), counted from
+    # iteration `timed_from`; empty when this run started the sweep
+    before: dict = field(default_factory=dict)
+    timed_from: int = 0
 
 
 def _start(plan: Plan, layout: Layout, programs: Programs, state, template, out, resume) -> _Run:
@@ -290,7 +313,14 @@ def _start(plan: Plan, layout: Layout, programs: Programs, state, template, out,
             if pool is not None:
                 pool.tree = jax.tree.map(np.array, host["selection"])
     done = int(np.asarray(state.iteration.addressable_shards[0].data)[0])
-    return _Run(state, metrics, pool, manager, out, done)
+    run = _Run(state, metrics, pool, manager, out, done)
+    if manager is not None and done > 0:  # the earlier parts' clocks, if they match
+        before = _read_timing(out)
+        if before.get("iteration") == done:
+            run.before = before
+        else:
+            run.timed_from = done
+    return run
 
 
 def _train(
@@ -364,6 +394,38 @@ def _keep(layout: Layout, programs: Programs, run: _Run) -> None:
         if run.pool is not None:
             saved["selection"] = run.pool.tree
         checkpoint.save(run.manager, run.done, saved)
+        write_atomic(os.path.join(run.out, TIMING), json_bytes(_timing(run)))
+
+
+# the clocks of a sweep's parts so far (`_timing`), beside its checkpoint
+TIMING = "timing.json"
+
+
+def _timing(run: _Run) -> dict:
+    """The whole sweep's clocks: this run's added to the earlier parts' (`run.before`);
+    `iteration`: the iterations they cover, `timed_from` on."""
+    before = run.before
+    return {
+        "iteration": run.done,
+        "timed_from_iteration": before.get("timed_from_iteration", run.timed_from),
+        "parts": before.get("parts", 0) + 1,
+        "compile_s": before.get("compile_s", 0.0) + run.compile_s,
+        "train_s": before.get("train_s", 0.0) + run.train_s,
+        "wall_s": before.get("wall_s", 0.0)
+        + run.compile_s
+        + (time.perf_counter() - run.wall_start),
+        "env_steps_timed": before.get("env_steps_timed", 0) + run.steps_this_run,
+    }
+
+
+def _read_timing(out: str) -> dict:
+    """The clocks `out` holds (`TIMING`), or `{}` if it holds none readable."""
+    try:
+        with open(os.path.join(out, TIMING)) as f:
+            saved = json.load(f)
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError):
+        return {}
+    return saved if isinstance(saved, dict) else {}
 
 
 def _evaluate(plan: Plan, layout: Layout, programs: Programs, run: _Run) -> tuple[dict, Any]:
@@ -371,9 +433,12 @@ def _evaluate(plan: Plan, layout: Layout, programs: Programs, run: _Run) -> tupl
     with `select_last > 1` what `front.json` records of the choice (else `None`)."""
     state, chosen = run.state, None
     if run.pool is not None:  # each preference's reported policy, on fresh episodes
-        index, z, regrets, picked = run.pool.choose(layout.prefs)
+        by = selection.criterion(plan.train)
+        index, z, regrets, picked = run.pool.choose(layout.prefs, by)
         final = distributed.to_host(programs.evaluate(state, layout.eval_keys))  # no choice
-        chosen = run.pool.summary(index, z, regrets, plan.n_prefs, plan.config.eval_episodes, final)
+        chosen = run.pool.summary(
+            index, z, regrets, plan.n_prefs, plan.config.eval_episodes, final, by
+        )
         state = distributed.to_global(picked, layout.sharding)
     return distributed.to_host(programs.evaluate(state, layout.eval_keys)), chosen
 
@@ -382,10 +447,16 @@ def _finish(plan: Plan, out, run: _Run, evaluation, chosen, timing) -> dict:
     """`front.json`'s content; process 0 of a sweep with `out` writes every file."""
     metrics = with_env_steps(plan.train, run.metrics)  # int64, counted on the host
     front = summarize(
-        plan.config, plan.env, plan.prefs, plan.j_ub, plan.hv_ref, metrics, evaluation, timing
+        plan.config,
+        plan.env,
+        plan.prefs,
+        plan.j_ub,
+        plan.hv_ref,
+        metrics,
+        evaluation,
+        timing,
+        selection=chosen,
     )
-    if chosen is not None:
-        front["selection"] = chosen
     if out is not None and distributed.is_writer():
         write_outputs(out, front, metrics, plan.prefs)
     return front
@@ -440,6 +511,23 @@ def _say_part(sharding, n_prefs: int, n_pad: int) -> None:
         file=sys.stderr,
         flush=True,
     )
+
+
+def check_pref_count(n_prefs: int, train: AnyConfig, env, flag: str = "--n-prefs") -> None:
+    """Checks, before anything is allocated, that `n_prefs` preferences' training states
+    alone (`state_bytes`, a lower bound of what a sweep holds) fit in this host's memory.
+
+    Raises:
+      SweepError: naming `flag`, the count, the memory it needs and the memory there is.
+    """
+    per_pref = state_bytes(train, env)
+    need, have = n_prefs * per_pref, _host_memory_bytes()
+    if need > have:
+        raise SweepError(
+            f"{flag} {n_prefs:,} needs at least {need / 2**30:,.1f} GiB for the training "
+            f"states ({per_pref:,} bytes per preference); this machine has "
+            f"{have / 2**30:,.1f} GiB (at most {have // per_pref:,} preferences)"
+        )
 
 
 def _host_memory_bytes() -> int:

@@ -101,3 +101,14 @@ def build_programs(
         per_device(jax.vmap(lambda s, k: evaluate_one(s, jax.random.wrap_key_data(k))))
     )
     return Programs(init, chunk_fn, evaluate)
+
+
+def state_bytes(train: AnyConfig, env) -> int:
+    """Bytes of one preference's training state (`trainer.init`'s, shapes only: nothing
+    is initialised)."""
+    trainer = make_trainer(train, env)
+    m = int(env.num_objectives)
+    shapes = jax.eval_shape(
+        trainer.init, jax.random.key(0), jax.ShapeDtypeStruct((m,), jnp.float32)
+    )
+    return sum(x.size * x.dtype.itemsize for x in jax.tree.leaves(shapes))
