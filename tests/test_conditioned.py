@@ -2,6 +2,8 @@
 practical update's for each environment's own preference, and one network's front on
 the concave bandit."""
 
+import json
+import os
 from types import SimpleNamespace
 
 import jax
@@ -9,7 +11,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from wcac_jax import algos, envs, runtime, scalarize, utopia
+from wcac_jax import algos, cli, envs, pareto, runtime, scalarize, sweep, utopia
 from wcac_jax.algos import conditioned, practical
 from wcac_jax.envs import concave_bandit
 
@@ -149,3 +151,31 @@ def test_one_network_recovers_the_concave_front_between_the_ends(bandit_front):
         assert 0.2 < angle < np.pi / 2 - 0.2
         assert angle == pytest.approx(float(concave_bandit.wc_optimum(pref)), abs=0.15)
     assert np.all(np.diff(theta) > 0.1)
+
+
+def test_cli_trains_one_network_and_evaluates_it_at_every_preference(tmp_path):
+    """`python -m wcac_jax.sweep --conditioned --total-steps 40000 --eval-prefs 5` on
+    Walker2d (its defaults: the v5 model on MuJoCo's C engine): one network, its front at
+    five evenly spread preferences, the training's env steps alone in `env_steps_total`,
+    a policy at any preference from `load_sweep`, and `--resume` of the finished run."""
+    out = str(tmp_path / "run")
+    args = ["--conditioned", "--total-steps", "40000", "--eval-prefs", "5", "--out", out]
+    assert cli.main([*args, "--quiet"]) == 0
+    with open(os.path.join(out, "front.json")) as f:
+        front = json.load(f)
+    assert [r["pref"] for r in front["prefs"]] == pareto.simplex_lattice(2, 5).tolist()
+    per_iteration = conditioned.ConditionedConfig().env_steps_per_iteration
+    assert 40_000 <= front["env_steps_total"] < 40_000 + per_iteration
+    assert front["conditioned"]["networks"] == 1 and front["conditioned"]["eval_prefs"] == 5
+    assert 0 < front["conditioned"]["eval_env_steps"] <= 5 * 8 * 500
+    assert front["config"]["train"]["kind"] == "conditioned"
+    for name in ("front.png", "front.csv", "curves.npz", "config.json"):
+        assert os.path.isfile(os.path.join(out, name))
+    run = sweep.load_sweep(out)
+    obs = np.zeros((3, int(run.env.observation_size)), np.float32)
+    ends = [np.asarray(run.policy_at(p)(obs)) for p in ([1.0, 0.0], [0.0, 1.0])]
+    assert ends[0].shape == (3, int(run.env.action_size))
+    assert not np.allclose(ends[0], ends[1])  # the preference is an input
+    assert cli.main([*args, "--quiet", "--resume"]) == 0  # finished: nothing to do
+    with open(os.path.join(out, "front.json")) as f:
+        assert json.load(f) == front
