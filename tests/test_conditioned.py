@@ -179,3 +179,49 @@ def test_cli_trains_one_network_and_evaluates_it_at_every_preference(tmp_path):
     assert cli.main([*args, "--quiet", "--resume"]) == 0  # finished: nothing to do
     with open(os.path.join(out, "front.json")) as f:
         assert json.load(f) == front
+
+
+def _experiment():
+    import importlib.util
+
+    path = os.path.join(ROOT, "experiments", "conditioned_front.py")
+    spec = importlib.util.spec_from_file_location("conditioned_front", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+ROOT = os.path.join(os.path.dirname(__file__), os.pardir)
+
+
+def test_pgmorl_scale_and_rank_correlation_by_hand():
+    exp = _experiment()
+    front = {
+        "prefs": [
+            {"return": [2000.0, -500.0], "episode_length": 500.0},
+            {"return": [400.0, 100.0], "episode_length": 200.0},
+        ]
+    }
+    # (R0, R1 + 4 L): the control objective as sum(5 - |a|^2)
+    np.testing.assert_array_equal(exp.pgmorl_points(front), [[2000.0, 1500.0], [400.0, 900.0]])
+    assert exp.spearman([0.0, 0.5, 1.0], [3.0, 2.0, 1.0]) == pytest.approx(-1.0)
+    assert exp.spearman([0.0, 0.5, 1.0], [1.0, 1.0, 2.0]) == pytest.approx(np.sqrt(3) / 2)
+
+
+def test_committed_experiment_summary_is_what_its_fronts_give():
+    exp = _experiment()
+    out = os.path.join(ROOT, "experiments", "results", "conditioned_walker2d")
+    with open(os.path.join(out, "summary.json")) as f:
+        summary = json.load(f)
+    fronts = exp.read_fronts(out, os.path.join(ROOT, summary["reused_9x1M"]))
+    assert set(fronts) == set(summary["runs"])
+    for arm, runs in summary["runs"].items():
+        for seed, row in runs.items():
+            metrics = exp.front_metrics(fronts[arm][int(seed)])
+            assert set(metrics) == set(row)
+            for key, value in row.items():
+                assert metrics[key] == (value if value is None else pytest.approx(value))
+    with open(os.path.join(out, "front.json")) as f:
+        top = json.load(f)
+    assert top == fronts["conditioned"][0] and len(top["prefs"]) >= 33
+    assert top["env_steps_total"] <= 3_030_000 and top["conditioned"]["networks"] == 1
