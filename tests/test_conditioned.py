@@ -185,9 +185,9 @@ def _experiment():
     import importlib.util
 
     path = os.path.join(ROOT, "experiments", "conditioned_front.py")
-    spec = importlib.util.spec_from_file_location("conditioned_front", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    found = importlib.util.spec_from_file_location("conditioned_front", path)
+    module = importlib.util.module_from_spec(found)
+    found.loader.exec_module(module)
     return module
 
 
