@@ -96,7 +96,10 @@ def test_front_numbers_are_what_its_returns_give(rel):
     assert front["sparsity"] == pytest.approx(_sparsity(returns), rel=RTOL, abs=1e-9)
     if returns.shape[1] == 2:
         assert front["expected_utility"] == pytest.approx(_expected_utility_2d(returns), rel=RTOL)
-    assert front["env_steps_total"] == front["env_steps_per_pref"] * len(returns)
+    if "conditioned" in front:  # one network for every preference: the training's steps
+        assert front["env_steps_per_pref"] is None and front["conditioned"]["networks"] == 1
+    else:
+        assert front["env_steps_total"] == front["env_steps_per_pref"] * len(returns)
 
 
 def _direction_front(summary_rel: str, direction: str) -> dict | None:

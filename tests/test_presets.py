@@ -193,7 +193,7 @@ def test_config_flags_come_from_every_field_with_its_doc_and_true_defaults(capsy
     with pytest.raises(SystemExit):
         cli.main(["--help"])
     out = " ".join(capsys.readouterr().out.split())
-    assert "discount (preset default: paper 0.99, practical 0.99)" in out
+    assert "discount (preset default: paper 0.99, practical 0.99, conditioned 0.99)" in out
     # Walker2d's command-line defaults: Gymnasium's v5 model on MuJoCo's C engine
     assert "(default: gymnasium-v5)" in out and "(default: mujoco)" in out
     # a flag of the other update's field is refused, naming it

@@ -24,6 +24,7 @@ from wcac_jax.sweep import (
     TrainingDiverged,
     check_pref_count,
     make_env,
+    run_conditioned,
     run_sweep,
 )
 
@@ -310,6 +311,7 @@ def build_parser() -> argparse.ArgumentParser:
         "moves every few seconds); does not change results (10)",
     )
     p.add_argument("--quiet", action="store_true", help="no progress output")
+    add_conditioned_flags(p)
     g = p.add_argument_group(
         "several processes (README, 'Many machines'): run the same command in each, "
         "with its own --process-id"
@@ -343,9 +345,69 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+def add_conditioned_flags(parser) -> None:
+    """`--conditioned --total-steps N --eval-prefs K` (`wcac_jax.sweep.conditioned`)."""
+    g = parser.add_argument_group(
+        "one preference-conditioned network for the whole front (the conditioned update)"
+    )
+    g.add_argument(
+        "--conditioned",
+        action="store_true",
+        help="train ONE network on preferences drawn per episode and evaluate it at "
+        "--eval-prefs evenly spread preferences (default preset: conditioned)",
+    )
+    g.add_argument(
+        "--total-steps",
+        type=int,
+        default=None,
+        help="with --conditioned: env steps of the whole training (default: "
+        f"{CONDITIONED_TOTAL_STEPS:,})",
+    )
+    g.add_argument(
+        "--eval-prefs",
+        type=int,
+        default=None,
+        help=f"with --conditioned: preferences the network is evaluated at "
+        f"({CONDITIONED_EVAL_PREFS}; --prefs for explicit ones)",
+    )
+
+
+CONDITIONED_TOTAL_STEPS = 3_000_000
+CONDITIONED_EVAL_PREFS = 33
+
+
+def conditioned_config(args) -> SweepConfig:
+    """The `SweepConfig` of `--conditioned`: the conditioned preset (or `--preset`), the
+    flags over it, `--total-steps` as its budget, `--eval-prefs` (or `--prefs`) as the
+    preferences the front is evaluated at; the final network reported."""
+    for flag, value in (("--steps-per-pref", args.steps_per_pref), ("--n-prefs", args.n_prefs)):
+        if value is not None:
+            raise SweepError(
+                f"{flag} does not apply to --conditioned (--total-steps, --eval-prefs)"
+            )
+    if args.select_last not in (None, 1):
+        raise SweepError("--select-last does not apply to --conditioned (one network)")
+    inner = argparse.Namespace(**vars(args))
+    inner.preset = args.preset or "conditioned"
+    inner.steps_per_pref = args.total_steps or CONDITIONED_TOTAL_STEPS
+    inner.n_prefs = CONDITIONED_EVAL_PREFS if args.eval_prefs is None else args.eval_prefs
+    inner.select_last, inner.select_every = 1, 0
+    inner.total_steps = inner.eval_prefs = None
+    inner.conditioned = None  # the flags above are checked: the sweep's own steps follow
+    return config_from_args(inner)
+
+
 def config_from_args(args) -> SweepConfig:
     """Builds (and validates) a `SweepConfig` from parsed CLI arguments: the preset's (or
     the environment's default) configuration, with every flag given applied over it."""
+    conditioned = getattr(args, "conditioned", False)
+    if conditioned:
+        return conditioned_config(args)
+    for flag in ("total_steps", "eval_prefs"):
+        if getattr(args, flag, None) is not None:
+            raise SweepError(f"{_flag(flag)} needs --conditioned")
+    if args.preset == "conditioned" and conditioned is not None:
+        raise SweepError("--preset conditioned trains one network for all: add --conditioned")
     defaults = presets.env_defaults(args.env)
     if args.preset is not None:
         try:
@@ -545,7 +607,7 @@ def main(argv=None, *, every_core: bool | None = None) -> int:
         out = args.out or os.path.join("runs", time.strftime("%Y%m%d-%H%M%S"))
         if args.resume and args.out is None:
             raise SweepError("--resume needs --out DIR")
-        front = run_sweep(
+        front = (run_conditioned if args.conditioned else run_sweep)(
             config,
             out,
             resume=args.resume,

@@ -13,30 +13,41 @@ from collections.abc import Callable
 from typing import NamedTuple
 
 from wcac_jax import runtime
-from wcac_jax.algos import paper, practical
+from wcac_jax.algos import conditioned, paper, practical
+from wcac_jax.algos.conditioned import ConditionedConfig
 from wcac_jax.algos.paper import PaperConfig
 from wcac_jax.algos.practical import PracticalConfig
 
 
 class Algo(NamedTuple):
-    """One update: its configuration class and `make_trainer(config, env) -> Trainer`."""
+    """One update: its configuration class and `make_trainer(config, env) -> Trainer`;
+    `make_evaluate(config, env, num_episodes, trainer)`, where its policy needs more than
+    `runtime.make_evaluate` gives it (default: that)."""
 
     config: type
     make_trainer: Callable
+    make_evaluate: Callable | None = None
 
 
 ALGOS: dict[str, Algo] = {
     "paper": Algo(PaperConfig, paper.make_trainer),
     "practical": Algo(PracticalConfig, practical.make_trainer),
+    "conditioned": Algo(
+        ConditionedConfig, conditioned.make_trainer, conditioned.make_evaluate_centre
+    ),
 }
 # kinds that older runs recorded, by their name now
 LEGACY_KINDS = {"ppo": "practical"}
 
-AnyConfig = PaperConfig | PracticalConfig
+AnyConfig = PaperConfig | PracticalConfig | ConditionedConfig
 
 
 def kind(config) -> str:
-    """The registered name of `config`'s update (`"paper"`, `"practical"`)."""
+    """The registered name of `config`'s update (`"paper"`, `"practical"`,
+    `"conditioned"`): its own class's, not a base class's."""
+    for name, algo in ALGOS.items():
+        if type(config) is algo.config:
+            return name
     for name, algo in ALGOS.items():
         if isinstance(config, algo.config):
             return name
@@ -65,7 +76,8 @@ def make_evaluate(
 ) -> Callable:
     """`evaluate(state, key) -> metrics` of the mean policy of `config`'s update
     (`runtime.make_evaluate`; `trainer` default: `make_trainer(config, env)`)."""
-    return runtime.make_evaluate(config, env, num_episodes, trainer or make_trainer(config, env))
+    evaluate = ALGOS[kind(config)].make_evaluate or runtime.make_evaluate
+    return evaluate(config, env, num_episodes, trainer or make_trainer(config, env))
 
 
 def make_train(config, env) -> Callable:
@@ -105,6 +117,7 @@ __all__ = [
     "ALGOS",
     "Algo",
     "AnyConfig",
+    "ConditionedConfig",
     "PaperConfig",
     "PracticalConfig",
     "config_class",

@@ -30,6 +30,7 @@ policies `wcac_jax.selection`.
 
 from wcac_jax.outputs import staging_dir
 from wcac_jax.presets import PAPER_PREFS
+from wcac_jax.sweep.conditioned import run_conditioned
 from wcac_jax.sweep.config import (
     MAX_ITERATIONS,
     PAPER_STEPS_PER_PREF,
@@ -58,6 +59,7 @@ __all__ = [
     "load_sweep",
     "make_chunk",
     "make_env",
+    "run_conditioned",
     "run_sweep",
     "staging_dir",
     "validate_prefs",

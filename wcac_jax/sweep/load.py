@@ -11,7 +11,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from wcac_jax import checkpoint, selection
-from wcac_jax.algos import make_evaluate, make_trainer
+from wcac_jax.algos import ConditionedConfig, conditioned, make_evaluate, make_trainer
 from wcac_jax.runtime import Trainer, UpdateState, with_env_steps
 from wcac_jax.sweep.config import SweepConfig, SweepError, make_env
 from wcac_jax.utopia import PREF_AXIS
@@ -39,6 +39,17 @@ class LoadedSweep(NamedTuple):
     state: UpdateState
     metrics: dict
     chosen: UpdateState | None = None
+
+    def policy_at(self, pref):
+        """`obs [..., obs] -> action`, the mean action at the preference `pref` `[m]` of a
+        conditioned sweep's one network (`wcac_jax.sweep.conditioned`).
+
+        Raises:
+          SweepError: the sweep trained one policy per preference (index `state`).
+        """
+        if not isinstance(self.config.train, ConditionedConfig):
+            raise SweepError("policy_at needs a conditioned sweep (one network for all)")
+        return conditioned.policy_at(self.trainer, jax.tree.map(lambda x: x[0], self.state), pref)
 
 
 def load_sweep(out: str) -> LoadedSweep:

@@ -1,0 +1,227 @@
+"""The preference-conditioned update: its pieces by hand, its advantage against the
+practical update's for each environment's own preference, and one network's front on
+the concave bandit."""
+
+import json
+import os
+from types import SimpleNamespace
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from wcac_jax import algos, cli, envs, pareto, runtime, scalarize, sweep, utopia
+from wcac_jax.algos import conditioned, practical
+from wcac_jax.envs import concave_bandit
+
+
+def test_registered_as_its_own_kind():
+    config = conditioned.ConditionedConfig()
+    assert algos.kind(config) == "conditioned"
+    assert algos.kind(practical.PracticalConfig()) == "practical"
+    assert algos.from_dict(algos.to_dict(config)) == config
+
+
+def test_episode_start_obs_follows_episode_boundaries():
+    # one environment, L = 5, obs = [t]; episodes end at transitions 1 and 3
+    first = jnp.array([-1.0])
+    obs = jnp.arange(5.0)[:, None]
+    done = jnp.array([0.0, 1.0, 0.0, 1.0, 0.0])
+    starts = conditioned.episode_start_obs(first, obs, done)
+    # transitions 0-1 belong to the episode in progress, 2-3 start at obs 2, 4 at obs 4
+    np.testing.assert_array_equal(starts[:, 0], [-1.0, -1.0, 2.0, 2.0, 4.0])
+
+
+def test_scalarized_advantage_linear_by_hand():
+    # linear: w = 1, so c = p * sigma
+    adv = jnp.array([2.0, -1.0])
+    pref = jnp.array([0.25, 0.75])
+    sigma = jnp.array([2.0, 4.0])
+    got, weights = conditioned.scalarized_advantage(
+        adv, jnp.zeros(2), pref, jnp.zeros(2), sigma, 1.0, "linear"
+    )
+    np.testing.assert_array_equal(weights, [1.0, 1.0])
+    assert float(got) == pytest.approx(2.0 * 0.25 * 2.0 + (-1.0) * 0.75 * 4.0)
+
+
+@pytest.mark.parametrize("augment", [0.0, 0.05])
+def test_advantage_equals_the_practical_update_env_by_env(augment):
+    """Each environment's scalarized advantage is what the practical update computes for
+    a preference at that environment's own: the weights `practical._scalarize` gives at
+    its `Jhat` and the shared utopia point, times p (plus rho), times sigma, dotted with
+    the GAE vector; and, by hand, lambda = softmax(p (z - Jhat) / mu)."""
+    rng = np.random.default_rng(0)
+    n, m, mu = 4, 2, 0.7
+    adv = jnp.asarray(rng.normal(size=(n, m)), jnp.float32)
+    j_hat = jnp.asarray(rng.normal(size=(n, m)) * 5, jnp.float32)
+    prefs = jnp.asarray(rng.dirichlet(np.ones(m), size=n), jnp.float32)
+    sigma = jnp.asarray([1.5, 0.5], jnp.float32)
+    z = jnp.max(j_hat, axis=0) + 1.0
+    index = runtime.TRACED_DIRECTIONS.index("smooth_wc")
+    got, weights = jax.vmap(
+        lambda a, j, p: conditioned.scalarized_advantage(a, j, p, z, sigma, mu, index, augment)
+    )(adv, j_hat, prefs)
+    config = practical.PracticalConfig(mu=mu, utopia="fixed", augment=augment)
+    parts = SimpleNamespace(config=config, j_ub=z)
+    state = SimpleNamespace(utopia=utopia.init(m))
+    for i in range(n):
+        _, _, w, _ = practical._scalarize(parts, state, j_hat[i], prefs[i], None)
+        coeff = scalarize.augmented_coefficients(w, prefs[i], augment) * sigma
+        assert float(got[i]) == pytest.approx(float(adv[i] @ coeff), rel=1e-6)
+        regret = np.asarray(prefs[i] * (z - j_hat[i]), np.float64)
+        lam = np.exp(regret / mu - np.max(regret / mu))
+        lam /= lam.sum()
+        np.testing.assert_allclose(weights[i], lam, rtol=1e-5)
+        want = np.asarray(adv[i]) @ ((lam * np.asarray(prefs[i]) + augment) * np.asarray(sigma))
+        assert float(got[i]) == pytest.approx(float(want), rel=1e-5)
+
+
+def test_utopia_from_the_preferences_in_play():
+    j_hat = jnp.array([[[1.0, 5.0], [3.0, 2.0]]])  # [L=1, N=2, m=2]
+    config = conditioned.ConditionedConfig(utopia_margin=0.5, utopia_min_spread=1.0)
+    state, z = conditioned.estimate_utopia(config, utopia.init(2), j_hat)
+    np.testing.assert_allclose(state.best, [3.0, 5.0])
+    # z = best + margin * max(best - least, min_spread)
+    np.testing.assert_allclose(z, [3.0 + 0.5 * 2.0, 5.0 + 0.5 * 3.0])
+    # the best so far is kept
+    state, z = conditioned.estimate_utopia(config, state, j_hat - 10.0)
+    np.testing.assert_allclose(state.best, [3.0, 5.0])
+
+
+def test_preference_conditioned_env_appends_and_keeps_the_preference():
+    env = envs.make("concave_bandit")
+    fixed = jnp.array([0.3, 0.7], jnp.float32)
+    cenv = conditioned.PreferenceConditioned(env, lambda key: fixed)
+    state = cenv.reset(jax.random.PRNGKey(0))
+    assert cenv.observation_size == env.observation_size + 2
+    np.testing.assert_array_equal(state.obs[-2:], fixed)
+    nxt = cenv.step(state, jnp.zeros(env.action_size))
+    np.testing.assert_array_equal(nxt.obs[-2:], fixed)
+    drawn = jax.vmap(conditioned.dirichlet_preference(3))(jax.random.split(jax.random.key(1), 64))
+    np.testing.assert_allclose(jnp.sum(drawn, axis=1), 1.0, atol=1e-6)
+    assert float(jnp.min(drawn)) >= 0.0
+
+
+# a fixed small policy noise (a stochastic policy's front on the bandit is the convex
+# hull: the ends), a sharp mu for its values in [0, 1], the fixed utopia point
+BANDIT = conditioned.ConditionedConfig(
+    num_envs=64,
+    rollout_steps=2,
+    num_iterations=200,
+    num_epochs=4,
+    num_minibatches=2,
+    width=32,
+    depth=1,
+    mu=0.01,
+    utopia="fixed",
+    normalize_obs=False,
+    learning_rate=3e-3,
+    learn_log_std=False,
+    log_std_init=-3.0,
+)
+BANDIT_PREFS = np.array([[0.6, 0.4], [0.5, 0.5], [0.4, 0.6]], np.float32)
+
+
+@pytest.fixture(scope="module")
+def bandit_front():
+    """One network trained on the concave bandit, evaluated at `BANDIT_PREFS`:
+    `[3, 2]` returns."""
+    env = envs.make("concave_bandit")
+    trainer = algos.make_trainer(BANDIT, env)
+    evaluate_at = conditioned.make_evaluate_at(BANDIT, env, 1, trainer)
+
+    @jax.jit
+    def program(key, prefs):
+        pref = jnp.full((2,), 0.5)
+        state, _ = trainer.run(trainer.init(key, pref), pref, BANDIT.num_iterations)
+        return jax.vmap(evaluate_at, in_axes=(None, None, 0))(state, key, prefs)
+
+    return np.asarray(program(jax.random.key(0), jnp.asarray(BANDIT_PREFS))["eval/return"])
+
+
+def test_one_network_recovers_the_concave_front_between_the_ends(bandit_front):
+    """The non-convex part, which linear weighting cannot reach: every interior
+    preference lands on the exact front, away from both ends, near its weighted-Chebyshev
+    optimum, in the preferences' order."""
+    front = concave_bandit.exact_front(2001)
+    theta = np.arctan2(1.0 - bandit_front[:, 0], 1.0 - bandit_front[:, 1])
+    for point, angle, pref in zip(bandit_front, theta, BANDIT_PREFS, strict=True):
+        assert np.min(np.linalg.norm(front - point, axis=1)) < 0.01
+        assert 0.2 < angle < np.pi / 2 - 0.2
+        assert angle == pytest.approx(float(concave_bandit.wc_optimum(pref)), abs=0.15)
+    assert np.all(np.diff(theta) > 0.1)
+
+
+def test_cli_trains_one_network_and_evaluates_it_at_every_preference(tmp_path):
+    """`python -m wcac_jax.sweep --conditioned --total-steps 40000 --eval-prefs 5` on
+    Walker2d (its defaults: the v5 model on MuJoCo's C engine): one network, its front at
+    five evenly spread preferences, the training's env steps alone in `env_steps_total`,
+    a policy at any preference from `load_sweep`, and `--resume` of the finished run."""
+    out = str(tmp_path / "run")
+    args = ["--conditioned", "--total-steps", "40000", "--eval-prefs", "5", "--out", out]
+    assert cli.main([*args, "--quiet"]) == 0
+    with open(os.path.join(out, "front.json")) as f:
+        front = json.load(f)
+    assert [r["pref"] for r in front["prefs"]] == pareto.simplex_lattice(2, 5).tolist()
+    per_iteration = conditioned.ConditionedConfig().env_steps_per_iteration
+    assert 40_000 <= front["env_steps_total"] < 40_000 + per_iteration
+    assert front["conditioned"]["networks"] == 1 and front["conditioned"]["eval_prefs"] == 5
+    assert 0 < front["conditioned"]["eval_env_steps"] <= 5 * 8 * 500
+    assert front["config"]["train"]["kind"] == "conditioned"
+    for name in ("front.png", "front.csv", "curves.npz", "config.json"):
+        assert os.path.isfile(os.path.join(out, name))
+    run = sweep.load_sweep(out)
+    obs = np.zeros((3, int(run.env.observation_size)), np.float32)
+    ends = [np.asarray(run.policy_at(p)(obs)) for p in ([1.0, 0.0], [0.0, 1.0])]
+    assert ends[0].shape == (3, int(run.env.action_size))
+    assert not np.allclose(ends[0], ends[1])  # the preference is an input
+    assert cli.main([*args, "--quiet", "--resume"]) == 0  # finished: nothing to do
+    with open(os.path.join(out, "front.json")) as f:
+        assert json.load(f) == front
+
+
+def _experiment():
+    import importlib.util
+
+    path = os.path.join(ROOT, "experiments", "conditioned_front.py")
+    found = importlib.util.spec_from_file_location("conditioned_front", path)
+    module = importlib.util.module_from_spec(found)
+    found.loader.exec_module(module)
+    return module
+
+
+ROOT = os.path.join(os.path.dirname(__file__), os.pardir)
+
+
+def test_pgmorl_scale_and_rank_correlation_by_hand():
+    exp = _experiment()
+    front = {
+        "prefs": [
+            {"return": [2000.0, -500.0], "episode_length": 500.0},
+            {"return": [400.0, 100.0], "episode_length": 200.0},
+        ]
+    }
+    # (R0, R1 + 4 L): the control objective as sum(5 - |a|^2)
+    np.testing.assert_array_equal(exp.pgmorl_points(front), [[2000.0, 1500.0], [400.0, 900.0]])
+    assert exp.spearman([0.0, 0.5, 1.0], [3.0, 2.0, 1.0]) == pytest.approx(-1.0)
+    assert exp.spearman([0.0, 0.5, 1.0], [1.0, 1.0, 2.0]) == pytest.approx(np.sqrt(3) / 2)
+
+
+def test_committed_experiment_summary_is_what_its_fronts_give():
+    exp = _experiment()
+    out = os.path.join(ROOT, "experiments", "results", "conditioned_walker2d")
+    with open(os.path.join(out, "summary.json")) as f:
+        summary = json.load(f)
+    fronts = exp.read_fronts(out, os.path.join(ROOT, summary["reused_9x1M"]))
+    assert set(fronts) == set(summary["runs"])
+    for arm, runs in summary["runs"].items():
+        for seed, row in runs.items():
+            metrics = exp.front_metrics(fronts[arm][int(seed)])
+            assert set(metrics) == set(row)
+            for key, value in row.items():
+                assert metrics[key] == (value if value is None else pytest.approx(value))
+    with open(os.path.join(out, "front.json")) as f:
+        top = json.load(f)
+    assert top == fronts["conditioned"][0] and len(top["prefs"]) >= 33
+    assert top["env_steps_total"] <= 3_030_000 and top["conditioned"]["networks"] == 1
