@@ -153,7 +153,7 @@ def test_one_network_recovers_the_concave_front_between_the_ends(bandit_front):
     assert np.all(np.diff(theta) > 0.1)
 
 
-def test_cli_trains_one_network_and_evaluates_it_at_every_preference(tmp_path):
+def test_cli_trains_one_network_and_evaluates_it_at_every_preference(tmp_path, capsys):
     """`python -m wcac_jax.sweep --conditioned --total-steps 40000 --eval-prefs 5` on
     Walker2d (its defaults: the v5 model on MuJoCo's C engine): one network, its front at
     five evenly spread preferences, the training's env steps alone in `env_steps_total`,
@@ -179,6 +179,21 @@ def test_cli_trains_one_network_and_evaluates_it_at_every_preference(tmp_path):
     assert cli.main([*args, "--quiet", "--resume"]) == 0  # finished: nothing to do
     with open(os.path.join(out, "front.json")) as f:
         assert json.load(f) == front
+    # a finished run is not written over without --overwrite: one line, exit 2, same bytes
+    before = {
+        n: open(os.path.join(out, n), "rb").read()
+        for n in sorted(os.listdir(out))
+        if os.path.isfile(os.path.join(out, n))
+    }
+    assert cli.main([*args, "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "is not empty" in err and out in err
+    after = {
+        n: open(os.path.join(out, n), "rb").read()
+        for n in sorted(os.listdir(out))
+        if os.path.isfile(os.path.join(out, n))
+    }
+    assert after == before
 
 
 def _experiment():

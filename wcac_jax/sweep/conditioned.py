@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import shutil
 import tempfile
 import time
 
@@ -23,7 +24,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from wcac_jax import algos, runtime
+from wcac_jax import algos, outputs, runtime
 from wcac_jax.algos import conditioned
 from wcac_jax.outputs import summarize, write_outputs
 from wcac_jax.sweep.config import SweepConfig, SweepError, default_hv_ref, make_env, validate_prefs
@@ -75,13 +76,15 @@ def run_conditioned(
     out: str | None = None,
     *,
     resume: bool = False,
+    overwrite: bool = False,
     chunks: int = 4,
     progress: bool | None = None,
 ) -> dict:
     """Trains `config`'s conditioned network (`training_sweep`, `config.steps_per_pref`
     env steps in all) and evaluates it at every one of `config.prefs`; returns the
-    front (`front.json`'s content). `out` as `run_sweep`'s (`None`: a temporary
-    directory, removed after).
+    front (`front.json`'s content). `out`, `resume` and `overwrite` as `run_sweep`'s
+    (`out=None`: a temporary directory, removed after; with `overwrite` the whole run,
+    training and evaluation, is written beside `out` and replaces it once finished).
 
     Raises:
       SweepError: bad input; TrainingDiverged: as `run_sweep`.
@@ -89,7 +92,21 @@ def run_conditioned(
     if out is None:
         with tempfile.TemporaryDirectory() as tmp:
             return _run(config, tmp, resume, chunks, progress, write=False)
-    return _run(config, out, resume, chunks, progress, write=True)
+    if not overwrite:
+        return _run(config, out, resume, chunks, progress, write=True)
+    if resume:
+        raise SweepError(
+            "--resume continues the sweep in --out and --overwrite replaces it: give one"
+        )
+    refusal = outputs.out_refusal(out, overwrite=True)
+    if refusal is not None:
+        raise SweepError(refusal)
+    work = outputs.staging_dir(out)
+    shutil.rmtree(work, ignore_errors=True)  # an earlier, interrupted try's
+    front = _run(config, work, False, chunks, progress, write=True)
+    if not front.get("interrupted"):
+        outputs.replace_dir(work, out)
+    return front
 
 
 def _run(config, out, resume, chunks, progress, write) -> dict:
@@ -119,7 +136,9 @@ def _front(config, run, prefs, evaluation, trained, eval_s) -> dict:
     n = prefs.shape[0]
     tiled = {k: np.broadcast_to(v, (n, *v.shape[1:])) for k, v in run.metrics.items()}
     timing = {k: trained.get(k, 0.0) for k in ("compile_s", "train_s", "wall_s")}
-    timing["steps_this_run"] = trained.get("env_steps_per_s", 0.0) * timing["train_s"]
+    timing["env_steps_timed"] = trained.get("env_steps_per_s", 0.0) * timing["train_s"]
+    timing["parts"] = trained.get("parts", 1)
+    timing["timed_from_iteration"] = trained.get("timed_from_iteration", 0)
     j_ub = runtime.resolve_j_ub(train, run.env)
     front = summarize(config, run.env, prefs, j_ub, hv_ref, tiled, evaluation, timing)
     z = jnp.asarray(front["j_ub"], jnp.float32)
