@@ -95,7 +95,7 @@ R = {
     "bench_cli_v5_loaded": f"{RES}/bench_cli_paper_mujoco_v5_100k/front_loaded.json",
     # the recommendation experiment
     "kuairand": f"{RES}/kuairand",
-    "kuairand_seed1": f"{RES}/kuairand/seed1",
+    "kuairand_headroom": f"{RES}/kuairand_headroom",
 }
 
 STATED_REF = (-500.0, -3000.0)  # Walker2d's default_hv_ref at T = 500
@@ -935,16 +935,21 @@ HEADS += ("Dislike↓ (e-4)", "WatchTime↑")
 
 
 def kuairand(doc: Doc, key: str, kind: str) -> str:
+    """Means over seeds and data sets; the change vs Behavior-Clone only where its 95%
+    interval excludes 0 (else `n.s.`)."""
     path = f"{R[key]}/table.json"
     d = load(path)
-    bc = d["methods"]["Behavior-Clone"][kind]
+    rel_key = "vs_bc" if kind == "ncis" else "truth_vs_bc"
     rows = []
     for name, m in d["methods"].items():
         cells = []
         for s in SIGNALS:
-            v = m[kind][s] * SCALE.get(s, 1.0)
-            rel = 100 * (m[kind][s] - bc[s]) / bc[s]
-            cells.append(num(v, 3) + ("" if name == "Behavior-Clone" else f" ({pct(rel)})"))
+            cell = num(m[kind][s] * SCALE.get(s, 1.0), 3)
+            lo, hi = m[f"{rel_key}_ci95"][s]
+            if name != "Behavior-Clone":
+                ns = lo is None or lo <= 0 <= hi
+                cell += " (n.s.)" if ns else f" ({pct(m[rel_key][s])})"
+            cells.append(cell)
         rows.append([name] + cells)
     if kind == "truth":
         rows.append(
@@ -953,6 +958,28 @@ def kuairand(doc: Doc, key: str, kind: str) -> str:
         )
     label = "NCIS (% vs BC)" if kind == "ncis" else "true value (% vs BC)"
     return md([doc.link(label, path), *HEADS], rows)
+
+
+def t_kuairand_unified(doc: Doc) -> str:
+    """The unified objective's true value, its change vs BC and the share of the
+    BC -> oracle gap, with 95% intervals; NCIS's effective sample size."""
+    path = f"{R['kuairand']}/table.json"
+    d = load(path)
+    rows = []
+    for name, m in d["methods"].items():
+        lo, hi = m["unified_vs_bc_ci95"]
+        glo, ghi = m["gap_share_ci95"]
+        rows.append(
+            [
+                name,
+                num(m["unified_truth"], 4),
+                f"{num(m['unified_vs_bc'], 4)} [{num(lo, 4)}, {num(hi, 4)}]",
+                f"{num(m['gap_share'], 2)} [{num(glo, 2)}, {num(ghi, 2)}]",
+                num(m["ess"]),
+            ]
+        )
+    head = [doc.link("unified preference, true value", path), "value", "vs BC [95%]"]
+    return md(head + ["share of BC → oracle gap [95%]", "NCIS ESS"], rows, "lrrrr")
 
 
 def t_kuairand_fig2(doc: Doc) -> str:
@@ -969,27 +996,38 @@ def t_kuairand_fig2(doc: Doc) -> str:
     return md([doc.link("leaning policy, true value vs unified", path), *HEADS], rows)
 
 
+def t_kuairand_headroom(doc: Doc) -> str:
+    """Behavior-Clone's and the oracle's true unified value against the Gaussian's width."""
+    path = f"{R['kuairand_headroom']}/headroom.json"
+    d = load(path)
+    rows = [
+        [f"σ = {float(sig):g}", num(v["bc"], 3), num(v["oracle"], 3), num(v["gap"], 3)]
+        for sig, v in d["sigma"].items()
+    ]
+    rows.append(["logged actions (no Gaussian)", num(d["logged"], 3), "", ""])
+    head = [doc.link("evaluation width", path), "Behavior-Clone", "Oracle", "gap"]
+    return md(head, rows, "lrrr")
+
+
 def t_kuairand_run(doc: Doc) -> str:
+    path = f"{R['kuairand']}/run.json"
+    d = load(path)
     rows = []
-    for key in ("kuairand", "kuairand_seed1"):
-        path = f"{R[key]}/run.json"
-        d = load(path)
-        sec = d["seconds"]
+    for i, (ds, sec) in enumerate(zip(d["data_sets"], d["seconds"]["per_data_set"], strict=True)):
         rows.append(
             [
-                doc.link(f"seed {d['seed']}", path),
-                num(d["rows"]),
-                num(d["train_rows"]),
-                num(d["test_rows"]),
-                num(d["users"]),
-                num(d["candidates"]),
-                num(d["state_dim"]),
-                num(sec["wcac"]),
-                num(sec["total"]),
+                doc.link(f"data set {i}", path),
+                num(ds["rows"]),
+                num(ds["train_rows"]),
+                num(ds["test_rows"]),
+                num(ds["users"]),
+                num(ds["candidates"]),
+                num(ds["state_dim"]),
+                num(sum(sec.values())),
             ]
         )
     head = ["run", "rows used", "train rows", "test rows", "users", "candidates", "state dims"]
-    return md(head + ["wcac's program s", "total wall s"], rows, "lrrrrrrrr")
+    return md(head + ["training wall s"], rows, "lrrrrrrr")
 
 
 # ---------------------------------------------------------------- inline values
@@ -1091,7 +1129,8 @@ TABLES: dict[str, Callable[[Doc], str]] = {
     "bench_cli": t_bench_cli,
     "kuairand_ncis": lambda doc: kuairand(doc, "kuairand", "ncis"),
     "kuairand_truth": lambda doc: kuairand(doc, "kuairand", "truth"),
-    "kuairand_seed1_truth": lambda doc: kuairand(doc, "kuairand_seed1", "truth"),
+    "kuairand_unified": t_kuairand_unified,
+    "kuairand_headroom": t_kuairand_headroom,
     "kuairand_fig2": t_kuairand_fig2,
     "kuairand_run": t_kuairand_run,
 }
@@ -1103,8 +1142,16 @@ def v_kuairand_training(doc: Doc) -> str:
     return doc.link(f"{num(c['steps'])} steps of {c['batch_size']} logged transitions", path)
 
 
+def v_kuairand_alg1_gap(doc: Doc) -> str:
+    path = f"{R['kuairand']}/table.json"
+    m = load(path)["methods"]["wcac (Algorithm 1)"]
+    lo, hi = m["gap_share_ci95"]
+    return doc.link(f"{num(100 * m['gap_share'])}% [95%: {num(100 * lo)}–{num(100 * hi)}%]", path)
+
+
 VALUES: dict[str, Callable[[Doc], str]] = {
     "kuairand_training": v_kuairand_training,
+    "kuairand_alg1_gap": v_kuairand_alg1_gap,
     "default_wall_range": v_default_wall_range,
     "selection_ge7": v_selection_ge7,
 }

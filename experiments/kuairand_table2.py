@@ -1,19 +1,31 @@
-"""The paper's recommendation experiment (Table 2 and Fig. 2) on a KuaiRand directory.
+"""The paper's recommendation experiment (Table 2 and Fig. 2) on KuaiRand directories.
 
-    python experiments/kuairand_table2.py --data DIR --out OUT [--quick] [--seed S]
-        [--version 27k|1k|pure] [--overwrite]
+    python experiments/kuairand_table2.py --data DIR [DIR ...] --out OUT [--quick]
+        [--seed S] [--seeds N] [--steps T] [--bc-weight W] [--version 27k|1k|pure]
+        [--overwrite]
 
-reads `DIR` (real KuaiRand-27K, -1K or -Pure files, found by their names, or
-`python -m wcac_jax.recsys.synth`'s), builds the protocol's offline transitions,
-trains Behavior-Clone and the four actor-critics (the paper's method `wcac`, PDPG,
-MOAC, MOCHA; `wcac_jax.recsys.offline`) with the unified preference, and the paper's
-method with 7 preferences each leaning to one signal (Fig. 2) in the same compiled
-program, then scores every policy on the test rows by NCIS against Behavior-Clone and,
-when `DIR` holds the generator's response model, by its true expected signals. Writes to `OUT`:
+reads each `DIR` (real KuaiRand-27K, -1K or -Pure files, found by their names, or
+`python -m wcac_jax.recsys.synth`'s; one directory per data seed), builds the protocol's
+offline transitions, and on each trains with `--seeds` training seeds (one compiled
+program per method, vmapped over seeds): Behavior-Clone, an independent behaviour model
+(another Behavior-Clone), the DDPG-style actor-critics (MOAC, MOCHA, PDPG, wcac;
+`wcac_jax.recsys.offline`) and the paper's Algorithm 1 (`wcac_jax.recsys.alg1`), all with
+the unified preference and the same budget and behaviour-cloning term; on the first data
+set, Algorithm 1 also with 7 preferences each leaning to one signal (Fig. 2). Every policy
+is scored on the test rows by NCIS against the behaviour model and, when `DIR` holds the
+generator's response model, by its true expected signals; the Oracle is the best Gaussian
+policy of the evaluation's width for the unified objective under that model. Writes to
+`OUT`:
 
-- `table.json`: `{"methods": {name: {"ncis": {signal: v}, "vs_bc": {signal: %},
-  "truth": {signal: v}}}, "logged": {...}}` (`truth` only on synthetic data);
+- `table.json`: `{"seeds", "data_seeds", "methods": {name: {"ncis", "ncis_ci95",
+  "vs_bc", "vs_bc_ci95", "ess", "truth", "truth_ci95", "truth_vs_bc",
+  "truth_vs_bc_ci95", "unified_truth", "unified_truth_ci95", "unified_vs_bc",
+  "unified_vs_bc_ci95", "gap_share", "gap_share_ci95"}}, "logged"}` (the `truth`
+  entries, the oracle's and the gap only on synthetic data), means over data sets and
+  training seeds with 95% bootstrap intervals (`wcac_jax.recsys.stats`);
 - `table.md`: the Table 2 analogue; `fig2.png`, `fig2.json`: the Fig. 2 analogue;
+- `curves.json`: per data set, method and seed, the critic loss and mean action in 40
+  windows of the training steps;
 - `run.json`: configuration, sizes and wall-clock times.
 
 `OUT` must be new or empty unless `--overwrite` is given; then it is replaced whole (no
@@ -31,6 +43,7 @@ from __future__ import annotations
 
 import json
 import os
+import pickle
 import resource
 import shutil
 import sys
@@ -43,8 +56,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from wcac_jax.outputs import unwritable_dir
+from wcac_jax.recsys import alg1, offline, stats
 from wcac_jax.recsys import ncis as ncis_lib
-from wcac_jax.recsys import offline
 from wcac_jax.recsys.cli import ArgumentParser
 from wcac_jax.recsys.data import SIGNALS, DataError, Protocol, load
 from wcac_jax.recsys.kuairand import VERSIONS
@@ -55,9 +68,12 @@ NAMES = {
     "moac": "MOAC (linear)",
     "mocha": "MOCHA (linear)",
     "pdpg": "PDPG (DNN)",
-    "wcac": "wcac (DNN, the paper's method)",
+    "wcac": "wcac (DDPG-style)",
+    "alg1": "wcac (Algorithm 1)",
+    "oracle": "Oracle",
 }
-ORDER = ("bc", "moac", "mocha", "pdpg", "wcac")
+ACTOR_CRITICS = ("moac", "mocha", "pdpg", "wcac", "alg1")
+ORDER = ("bc", *ACTOR_CRITICS, "oracle")
 # Table 2's column scales, as the paper prints them
 COLUMNS = (
     ("click", "Click↑", 1.0),
@@ -70,6 +86,8 @@ COLUMNS = (
 )
 UNIFIED = np.full(7, 1.0 / 7)
 LEAN = 0.4  # a leaning preference: 0.4 on its signal, 0.1 on each of the six others
+CURVE_POINTS = 40  # training curves: means over this many equal windows of the steps
+N_BOOT = 1000
 
 
 def leaning_prefs() -> np.ndarray:
@@ -80,15 +98,17 @@ def leaning_prefs() -> np.ndarray:
 
 
 QUICK = offline.OfflineConfig(steps=40, batch_size=32, width=16, critic_warmup=0.25)
+DEFAULT = offline.OfflineConfig(steps=2000, batch_size=256, width=64)
 
 
-def _test_actions(act, params, data: Protocol, prefs_axis: bool, chunk: int = 4096):
-    """The policy's `action(s)` on every test row: `[P, n_test]` (or `[n_test]`)."""
-    fn = jax.jit(jax.vmap(act, in_axes=(0, None)) if prefs_axis else act)
+def _test_actions(act, params, data: Protocol, batch_axis: bool, rows=None, chunk: int = 4096):
+    """The policy's `action(s)` on `rows` (default: the test rows): `[P, n]` (or `[n]`)."""
+    fn = jax.jit(jax.vmap(act, in_axes=(0, None)) if batch_axis else act)
+    rows = np.arange(data.n_train, data.n_rows) if rows is None else rows
     out = []
-    for start in range(data.n_train, data.n_rows, chunk):
-        rows = jnp.arange(start, min(start + chunk, data.n_rows))
-        out.append(np.asarray(fn(params, offline.net_input(data, rows))))
+    for start in range(0, rows.shape[0], chunk):
+        r = jnp.asarray(rows[start : start + chunk])
+        out.append(np.asarray(fn(params, offline.net_input(data, r))))
     return np.concatenate(out, axis=-1)
 
 
@@ -109,28 +129,50 @@ def _fmt(v: float, scale: float) -> str:
     return f"{v * scale:.3f}"
 
 
+def _cell(row: dict, kind: str, sig: str, scale: float, is_bc: bool) -> str:
+    """`mean [lo, hi]` and, off Behavior-Clone, the change vs BC where its interval
+    excludes 0 (else `n.s.`)."""
+    lo, hi = row[f"{kind}_ci95"][sig]
+    cell = f"{_fmt(row[kind][sig], scale)} [{_fmt(lo, scale)}, {_fmt(hi, scale)}]"
+    if is_bc:
+        return cell
+    rel = row["vs_bc" if kind == "ncis" else "truth_vs_bc"][sig]
+    rel_ci = row["vs_bc_ci95" if kind == "ncis" else "truth_vs_bc_ci95"][sig]
+    if rel is None or rel_ci[0] is None:
+        return cell + " (n/a)"
+    verdict = stats.verdict(rel_ci)
+    if sig == "hate":  # fewer dislikes is better
+        verdict = {"better": "worse", "worse": "better"}.get(verdict, verdict)
+    shown = f"{rel:+.1f}%" if verdict != "n.s." else "n.s."
+    return cell + f" ({shown})"
+
+
 def markdown(table: dict, has_truth: bool) -> str:
-    """The Table 2 analogue: NCIS (% vs Behavior-Clone), and the true value below."""
-    head = "| | " + " | ".join(c[1] for c in COLUMNS) + " |"
-    lines = [head, "|---" * (len(COLUMNS) + 1) + "|"]
-    for key in ORDER:
-        name = NAMES[key]
-        row = table["methods"][name]
-        cells = []
-        for sig, _, scale in COLUMNS:
-            cell = _fmt(row["ncis"][sig], scale)
-            if key != "bc":
-                pct = row["vs_bc"][sig]
-                cell += " (n/a)" if pct is None else f" ({pct:+.1f}%)"
-            if has_truth:
-                cell += f" <br>true {_fmt(row['truth'][sig], scale)}"
-            cells.append(cell)
-        lines.append(f"| {name} | " + " | ".join(cells) + " |")
+    """The Table 2 analogue: NCIS and, on synthetic data, the true value, each with its
+    95% interval and its change vs Behavior-Clone where that change's interval excludes 0;
+    then the unified objective's true value and the share of the BC -> oracle gap."""
+    kinds = ("ncis", "truth") if has_truth else ("ncis",)
+    lines = []
+    for kind in kinds:
+        label = {"ncis": "NCIS", "truth": "true value"}[kind]
+        lines += [f"| {label} | " + " | ".join(c[1] for c in COLUMNS) + " |"]
+        lines += ["|---" * (len(COLUMNS) + 1) + "|"]
+        for name, row in table["methods"].items():
+            cells = [_cell(row, kind, s, sc, name == NAMES["bc"]) for s, _, sc in COLUMNS]
+            lines.append(f"| {name} | " + " | ".join(cells) + " |")
+        lines.append("")
     if has_truth:
-        logged = table["logged"]["truth"]
-        cells = [_fmt(logged[s], scale) for s, _, scale in COLUMNS]
-        lines.append("| (logged policy, true) | " + " | ".join(cells) + " |")
-    return "\n".join(lines) + "\n"
+        lines += ["| method | unified true value | vs BC | share of BC → oracle gap | NCIS ESS |"]
+        lines += ["|---|---|---|---|---|"]
+        for name, row in table["methods"].items():
+            u, (lo, hi) = row["unified_truth"], row["unified_truth_ci95"]
+            d, (dlo, dhi) = row["unified_vs_bc"], row["unified_vs_bc_ci95"]
+            g, (glo, ghi) = row["gap_share"], row["gap_share_ci95"]
+            lines.append(
+                f"| {name} | {u:.4f} [{lo:.4f}, {hi:.4f}] | {d:+.4f} [{dlo:+.4f}, {dhi:+.4f}] "
+                f"| {g:+.2f} [{glo:+.2f}, {ghi:+.2f}] | {row['ess']:.0f} |"
+            )
+    return "\n".join(lines).rstrip() + "\n"
 
 
 def plot_fig2(fig2: dict, path: str) -> None:
@@ -166,149 +208,315 @@ def plot_fig2(fig2: dict, path: str) -> None:
     os.replace(path + ".tmp.png", path)
 
 
-def run(
-    data_dir: str,
-    out: str,
-    cfg: offline.OfflineConfig,
-    seed: int,
-    log=print,
-    version: str | None = None,
-) -> dict:
-    """The whole experiment; returns `table.json`'s content. `version` is the KuaiRand
-    layout (`27k`, `1k`, `pure`; by default found from the file names)."""
-    t0 = time.perf_counter()
-    data = load(data_dir, version=version)
-    t_load = time.perf_counter() - t0
-    log(
-        f"loaded {data.n_rows} rows ({data.n_train} train), state {data.state_dim} dims "
-        f"in {t_load:.1f}s"
-    )
+def _curves(metrics: dict) -> dict:
+    """Per seed, the critic loss and the mean action averaged over `CURVE_POINTS` equal
+    windows of the training steps: `{name: [S, points]}`."""
+    out = {}
+    for key in ("critic_loss", "mean_action"):
+        x = np.asarray(metrics[f"train/{key}"], np.float64)  # [S, steps]
+        points = min(CURVE_POINTS, x.shape[1])
+        n = x.shape[1] - x.shape[1] % points
+        out[key] = x[:, :n].reshape(x.shape[0], points, -1).mean(axis=-1).tolist()
+    return out
+
+
+def train_data_set(data: Protocol, cfg, acfg, key, seeds: int, lean: bool, log):
+    """Every method on one data set: `(actions, curves, behaviour, times)`.
+
+    `actions[method]` is `[S, n_test]` (wcac (Algorithm 1) `[S + 7, n_test]` with `lean`:
+    the 7 leaning preferences of Fig. 2 after the unified ones); `behaviour` `[n_rows]` is
+    the behaviour model's action on every row, a Behavior-Clone of its own key.
+    """
     obj = offline.objectives(data, cfg.gamma, cfg.ub_margin)
-    model_path = os.path.join(data_dir, MODEL_FILE)
-    model = ResponseModel.load(model_path) if os.path.isfile(model_path) else None
-    keys = jax.random.split(jax.random.key(seed), len(ORDER))
-    times = {"load": t_load}
-
-    test_reward = data.reward[data.n_train :]
-    logged = data.action[data.n_train :].astype(jnp.float32)
-
+    keys = jax.random.split(key, len(ORDER) + 1)
+    actions, curves, times = {}, {}, {}
     t = time.perf_counter()
     bc_train, bc_act = offline.make_train_bc(cfg, data)
-    bc_params, bc_losses = jax.jit(bc_train)(keys[0], data)
-    offline.check_finite(NAMES["bc"], "loss", bc_losses)
-    behaviour = _test_actions(bc_act, bc_params, data, prefs_axis=False)
+    bc_keys = jax.random.split(keys[0], seeds + 1)  # the last: the behaviour model
+    bc_params, bc_losses = jax.jit(jax.vmap(bc_train, in_axes=(0, None)))(bc_keys, data)
+    for losses in np.asarray(bc_losses):  # one row per key
+        offline.check_finite(NAMES["bc"], "loss", losses)
+    every = _test_actions(bc_act, bc_params, data, True, rows=np.arange(data.n_rows))
+    behaviour = every[-1]
+    actions["bc"] = every[:seeds, data.n_train :]
     times["bc"] = time.perf_counter() - t
-    log(
-        f"Behavior-Clone: loss {float(bc_losses[0]):.3f} -> {float(bc_losses[-1]):.3f}, "
-        f"{times['bc']:.1f}s"
-    )
-
-    actions = {"bc": behaviour[None]}
-    curves = {}
-    for i, method in enumerate(ORDER[1:], 1):
-        prefs = np.vstack([UNIFIED, leaning_prefs()]) if method == "wcac" else UNIFIED[None]
+    log(f"  Behavior-Clone x{seeds + 1}: {times['bc']:.1f}s")
+    for i, method in enumerate(ACTOR_CRITICS, 1):
+        prefs = np.repeat(UNIFIED[None], seeds, axis=0)
+        if method == "alg1" and lean:
+            prefs = np.vstack([prefs, leaning_prefs()])
+        pkeys = jax.random.split(keys[i], seeds)
+        pkeys = jnp.concatenate([pkeys, jnp.repeat(pkeys[:1], len(prefs) - seeds, axis=0)])
         t = time.perf_counter()
-        train, act = offline.make_train(method, cfg, data)
-        sweep = jax.jit(jax.vmap(train, in_axes=(0, 0, None, None)))
-        pkeys = jax.random.split(keys[i], prefs.shape[0])
-        state, metrics = sweep(pkeys, jnp.asarray(prefs, jnp.float32), data, obj)
+        prefs = jnp.asarray(prefs, jnp.float32)
+        if method == "alg1":
+            train, act = alg1.make_train(cfg, acfg, data)
+            sweep = jax.jit(jax.vmap(train, in_axes=(0, 0, None, None, None)))
+            state, metrics = sweep(pkeys, prefs, data, obj, jnp.asarray(behaviour))
+        else:
+            train, act = offline.make_train(method, cfg, data)
+            sweep = jax.jit(jax.vmap(train, in_axes=(0, 0, None, None)))
+            state, metrics = sweep(pkeys, prefs, data, obj)
         jax.block_until_ready(state)
         offline.check_finite(NAMES[method], "critic loss", metrics["train/critic_loss"])
         offline.check_finite(NAMES[method], "mean action", metrics["train/mean_action"])
-        actions[method] = _test_actions(act, state.actor, data, prefs_axis=True)
+        actions[method] = _test_actions(act, state.actor, data, True)
+        curves[method] = _curves(jax.tree.map(lambda x: x[:seeds], metrics))
         times[method] = time.perf_counter() - t
-        curves[method] = {
-            "critic_loss_first_last": [
-                float(metrics["train/critic_loss"][0, 0]),
-                float(metrics["train/critic_loss"][0, -1]),
-            ],
-            "final_weights": np.asarray(state.weights[0]).round(4).tolist(),
-            "mean_test_action": float(actions[method][0].mean()),
-        }
         log(
-            f"{method}: P={prefs.shape[0]}, {times[method]:.1f}s, mean test action "
-            f"{actions[method][0].mean():.1f} (logged {float(logged.mean()):.1f})"
+            f"  {NAMES[method]}: P={prefs.shape[0]}, {times[method]:.1f}s, mean test action "
+            f"{actions[method][:seeds].mean():.1f} (logged "
+            f"{float(data.action[data.n_train :].mean()):.1f})"
         )
+    return actions, curves, behaviour, obj, times
 
-    truth_table = _truth_tables(model, data) if model is not None else None
-    beh = jnp.asarray(behaviour)
 
-    def score(target):
-        target = jnp.asarray(target, jnp.float32)
-        est = np.asarray(ncis_lib.ncis(target, beh, logged, test_reward))
-        out = {"ncis": dict(zip(SIGNALS, est.tolist(), strict=True))}
+def score_rows(actions, behaviour, data: Protocol, truth_table, coeff):
+    """Per method the per-row pieces the table is made of (host numpy):
+    `w [S, n]`, `wr [S, n, 7]` (NCIS) and, with a truth table, `true [S, n, 8]` (the seven
+    signals and the unified objective `signals . coeff`), and each run's ESS `[S]`."""
+    logged = data.action[data.n_train :].astype(jnp.float32)
+    reward = np.asarray(data.reward[data.n_train :], np.float64)
+    beh = jnp.asarray(behaviour[data.n_train :], jnp.float32)
+    out = {}
+    for key, acts in actions.items():
+        w = np.stack(
+            [np.asarray(ncis_lib.importance_weights(jnp.asarray(a), beh, logged)) for a in acts]
+        ).astype(np.float64)
+        rows = {"w": w, "wr": w[:, :, None] * reward[None]}
+        rows["ess"] = np.array([float(ncis_lib.effective_sample_size(x)) for x in w])
         if truth_table is not None:
-            true = np.asarray(ncis_lib.true_value(target, truth_table))
-            out["truth"] = dict(zip(SIGNALS, true.tolist(), strict=True))
-        return out
+            true = np.stack(
+                [np.asarray(ncis_lib.true_rows(jnp.asarray(a), truth_table)) for a in acts]
+            ).astype(np.float64)
+            rows["true"] = np.concatenate([true, (true @ coeff)[..., None]], axis=-1)
+        out[key] = rows
+    return out
 
-    table = {"methods": {}}
-    scores = {k: score(actions[k][0]) for k in ORDER}
-    bc_ncis = scores["bc"]["ncis"]
-    for key in ORDER:
-        s = scores[key]
-        s["vs_bc"] = {sig: _percent(s["ncis"][sig] - bc_ncis[sig], bc_ncis[sig]) for sig in SIGNALS}
-        table["methods"][NAMES[key]] = {k: s[k] for k in ("ncis", "vs_bc", "truth") if k in s}
-    table["logged"] = {
-        "mean": dict(zip(SIGNALS, np.asarray(test_reward.mean(0)).tolist(), strict=True))
+
+def _signals(x) -> dict:
+    return dict(zip(SIGNALS, np.asarray(x).tolist(), strict=True))
+
+
+def _none(x):
+    """nan -> None (JSON null), elementwise over nested lists."""
+    if isinstance(x, list):
+        return [_none(v) for v in x]
+    return None if not np.isfinite(x) else float(x)
+
+
+def summarise(per_data: list, draws: list, has_truth: bool) -> dict:
+    """`table.json`'s `methods`: point estimates, 95% intervals, changes vs Behavior-Clone
+    (paired), ESS and, with the truth, the unified objective and the gap share."""
+    ncis_rep = {
+        k: stats.ncis_replicates(
+            [d[k]["w"] for d in per_data], [d[k]["wr"] for d in per_data], draws
+        )
+        for k in ORDER
     }
+    ones = [
+        stats.Draws(np.ones((1, d.counts.shape[1])), np.arange(d.seeds.shape[1])[None])
+        for d in draws
+    ]
+    ncis_pt = {
+        k: stats.ncis_replicates(
+            [d[k]["w"] for d in per_data], [d[k]["wr"] for d in per_data], ones
+        )[0]
+        for k in ORDER
+    }
+    if has_truth:
+        true_rep = {
+            k: stats.mean_replicates([d[k]["true"] for d in per_data], draws) for k in ORDER
+        }
+        true_pt = {k: stats.point([d[k]["true"].mean(axis=1) for d in per_data]) for k in ORDER}
+    methods = {}
+    for k in ORDER:
+        rel_rep = stats.relative(ncis_rep[k], ncis_rep["bc"])
+        row = {
+            "ncis": _signals(ncis_pt[k]),
+            "ncis_ci95": _signals(stats.ci95(ncis_rep[k])),
+            "vs_bc": _signals(_none(stats.relative(ncis_pt[k], ncis_pt["bc"]).tolist())),
+            "vs_bc_ci95": _signals(_none(stats.ci95(rel_rep).tolist())),
+            "ess": float(np.mean([d[k]["ess"].mean() for d in per_data])),
+        }
+        if has_truth:
+            t_rep, t_pt = true_rep[k], true_pt[k]
+            rel_rep = stats.relative(t_rep[:, :7], true_rep["bc"][:, :7])
+            diff_rep = t_rep[:, 7] - true_rep["bc"][:, 7]
+            gap_rep = stats.gap_share(t_rep[:, 7], true_rep["bc"][:, 7], true_rep["oracle"][:, 7])
+            row |= {
+                "truth": _signals(t_pt[:7]),
+                "truth_ci95": _signals(stats.ci95(t_rep[:, :7])),
+                "truth_vs_bc": _signals(
+                    _none(stats.relative(t_pt[:7], true_pt["bc"][:7]).tolist())
+                ),
+                "truth_vs_bc_ci95": _signals(_none(stats.ci95(rel_rep).tolist())),
+                "unified_truth": float(t_pt[7]),
+                "unified_truth_ci95": stats.ci95(t_rep[:, 7]).tolist(),
+                "unified_vs_bc": float(t_pt[7] - true_pt["bc"][7]),
+                "unified_vs_bc_ci95": stats.ci95(diff_rep).tolist(),
+                "gap_share": float(
+                    stats.gap_share(t_pt[7], true_pt["bc"][7], true_pt["oracle"][7])
+                ),
+                "gap_share_ci95": stats.ci95(gap_rep).tolist(),
+            }
+        methods[NAMES[k]] = row
+    return methods
+
+
+def data_set_part(d: int, data_dir: str, cfg, acfg, seed: int, seeds: int, version, log):
+    """Everything the table needs from data set `d` (host numpy; picklable): the per-row
+    scores of every method, the training curves, times, sizes and the logged values."""
+    t = time.perf_counter()
+    data = load(data_dir, version=version)
+    log(
+        f"data set {d} ({data_dir}): {data.n_rows} rows ({data.n_train} train), "
+        f"state {data.state_dim} dims, {time.perf_counter() - t:.1f}s"
+    )
+    model_path = os.path.join(data_dir, MODEL_FILE)
+    model = ResponseModel.load(model_path) if os.path.isfile(model_path) else None
+    key = jax.random.fold_in(jax.random.key(seed), d)
+    actions, curves, behaviour, obj, times = train_data_set(
+        data, cfg, acfg, key, seeds, lean=(d == 0), log=log
+    )
+    truth_table = _truth_tables(model, data) if model is not None else None
+    # the unified objective per step as the methods see it: p . scale / (1 - gamma)
+    coeff = UNIFIED * np.asarray(obj.scale, np.float64) / (1.0 - cfg.gamma)
     if truth_table is not None:
+        actions["oracle"] = np.asarray(
+            ncis_lib.oracle_actions(truth_table, jnp.asarray(coeff, jnp.float32))
+        )[None]
+    else:  # without a response model there is no oracle: Behavior-Clone stands in
+        actions["oracle"] = actions["bc"][:1]
+    leaning = actions["alg1"][seeds:]
+    actions["alg1"] = actions["alg1"][:seeds]
+    fig2 = None
+    if d == 0:
+        fig2 = _fig2_scores(leaning, actions["alg1"][0], behaviour, data, truth_table)
+    test_reward = np.asarray(data.reward[data.n_train :])
+    logged = {"mean": _signals(test_reward.mean(0))}
+    if model is not None:
         users = np.asarray(data.user_index[data.n_train :])
         vids = data.video_ids[np.asarray(data.action[data.n_train :])]
-        true_logged = model.expected(data.user_ids[users], vids).mean(axis=0)
-        table["logged"]["truth"] = dict(zip(SIGNALS, true_logged.tolist(), strict=True))
-
-    # Fig. 2: the 7 leaning policies (rows 1..7 of wcac's sweep) against the unified (row 0)
-    fig2 = {
-        "prefs": leaning_prefs().tolist(),
-        "signals": list(SIGNALS),
-        "values": {},
-        "improvement": {},
-    }
-    lean_scores = [score(a) for a in actions["wcac"]]
-    sign = np.array([-1.0 if s == "hate" else 1.0 for s in SIGNALS])
-    for kind in ("ncis", "truth"):
-        if kind not in lean_scores[0]:
-            continue
-        vals = np.array([[sc[kind][s] for s in SIGNALS] for sc in lean_scores])  # [8, 7]
-        ref = vals[0]
-        fig2["values"][kind] = {"unified": ref.tolist(), "leaning": vals[1:].tolist()}
-        # a reference of 0 (no event in the test rows) has no relative change: null
-        rel = [[_percent(sign[j] * (v[j] - ref[j]), ref[j]) for j in range(7)] for v in vals[1:]]
-        fig2["improvement"][kind] = rel
-
-    total = time.perf_counter() - t0
-    times["total"] = total
-    run_info = {
+        logged["truth"] = _signals(model.expected(data.user_ids[users], vids).mean(axis=0))
+    size = {
         "data": os.path.abspath(data_dir),
-        "synthetic": model is not None,
         "rows": data.n_rows,
         "train_rows": data.n_train,
         "test_rows": data.n_rows - data.n_train,
         "users": len(data.user_ids),
         "candidates": data.n_candidates,
         "state_dim": data.state_dim,
-        "config": asdict(cfg),
-        "seed": seed,
         "j_ub": np.asarray(obj.j_ub).tolist(),
         "reward_scale": np.asarray(obj.scale).tolist(),
-        "training": curves,
-        "seconds": {k: round(v, 1) for k, v in times.items()},
-        # CPU seconds of this process: with other jobs on the machine, wall time overstates
-        # what the run itself needs
+    }
+    return {
+        "name": os.path.basename(os.path.normpath(data_dir)),
+        "scores": score_rows(actions, behaviour, data, truth_table, coeff),
+        "curves": curves,
+        "times": {k: round(v, 1) for k, v in times.items()},
+        "logged": logged,
+        "size": size,
+        "fig2": fig2,
+        "has_truth": model is not None,
         "cpu_seconds": round(sum(resource.getrusage(resource.RUSAGE_SELF)[:2]), 1),
+    }
+
+
+def run(
+    data_dirs: list[str],
+    out: str,
+    cfg: offline.OfflineConfig,
+    seed: int,
+    log=print,
+    version: str | None = None,
+    seeds: int = 5,
+    acfg: alg1.Alg1Config | None = None,
+    n_boot: int = N_BOOT,
+    parts: list | None = None,
+) -> dict:
+    """The whole experiment; returns `table.json`'s content.
+
+    Each of `data_dirs` is one data set (one data seed); on each, every method is trained
+    with `seeds` training seeds. `version` is the KuaiRand layout (`27k`, `1k`, `pure`;
+    by default found from the file names). `parts` (from `data_set_part`, e.g. run in
+    separate processes) replace the training."""
+    acfg = alg1.Alg1Config() if acfg is None else acfg
+    t0 = time.perf_counter()
+    if parts is None:
+        parts = [
+            data_set_part(d, p, cfg, acfg, seed, seeds, version, log)
+            for d, p in enumerate(data_dirs)
+        ]
+    rng = np.random.default_rng(seed)
+    draws = [stats.draw(rng, p["size"]["test_rows"], seeds, n_boot) for p in parts]
+    has_truth = all(p["has_truth"] for p in parts)
+    logged = [p["logged"] for p in parts]
+    table = {
+        "seeds": list(range(seeds)),
+        "data_seeds": [p["name"] for p in parts],
+        "unified_preference": UNIFIED.tolist(),
+        "bootstrap": {"replicates": n_boot, "resampled": "test rows and training seeds"},
+        "methods": summarise([p["scores"] for p in parts], draws, has_truth),
+        "logged": {
+            k: _signals(np.mean([[li[k][s] for s in SIGNALS] for li in logged], axis=0))
+            for k in logged[0]
+        },
+    }
+    fig2 = {"prefs": leaning_prefs().tolist(), "signals": list(SIGNALS), **parts[0]["fig2"]}
+    total = time.perf_counter() - t0 + sum(sum(p["times"].values()) for p in parts)
+    run_info = {
+        "synthetic": has_truth,
+        "data_sets": [p["size"] for p in parts],
+        "seeds": seeds,
+        "config": asdict(cfg),
+        "alg1_config": asdict(acfg),
+        "seed": seed,
+        "seconds": {"per_data_set": [p["times"] for p in parts], "total": round(total, 1)},
+        # CPU seconds of the processes: with other jobs on the machine, wall time
+        # overstates what the run itself needs
+        "cpu_seconds": [p["cpu_seconds"] for p in parts],
         "cpu_count": os.cpu_count(),
         "load_average_at_end": list(os.getloadavg()),
     }
+    curves = {"points": CURVE_POINTS, "steps": cfg.steps, "data_sets": [p["curves"] for p in parts]}
     files = {
         "table.json": json.dumps(table, indent=2) + "\n",
-        "table.md": markdown(table, truth_table is not None),
+        "table.md": markdown(table, has_truth),
         "fig2.json": json.dumps(fig2, indent=2) + "\n",
         "run.json": json.dumps(run_info, indent=2) + "\n",
+        "curves.json": json.dumps(curves) + "\n",
     }
     write_results(out, files, fig2)
     log(f"done in {total:.1f}s; wrote {out}")
     return table
+
+
+def _fig2_scores(leaning, unified, behaviour, data: Protocol, truth_table) -> dict:
+    """Fig. 2: the 7 leaning policies against the unified one (NCIS and truth, %)."""
+    logged = data.action[data.n_train :].astype(jnp.float32)
+    reward = data.reward[data.n_train :]
+    beh = jnp.asarray(behaviour[data.n_train :], jnp.float32)
+    sign = np.array([-1.0 if s == "hate" else 1.0 for s in SIGNALS])
+    out = {"values": {}, "improvement": {}}
+    for kind in ("ncis", "truth"):
+        if kind == "truth" and truth_table is None:
+            continue
+        vals = []
+        for a in [unified, *leaning]:
+            a = jnp.asarray(a, jnp.float32)
+            if kind == "ncis":
+                vals.append(np.asarray(ncis_lib.ncis(a, beh, logged, reward)))
+            else:
+                vals.append(np.asarray(ncis_lib.true_value(a, truth_table)))
+        vals = np.array(vals)
+        ref = vals[0]
+        out["values"][kind] = {"unified": ref.tolist(), "leaning": vals[1:].tolist()}
+        # a reference of 0 (no event in the test rows) has no relative change: null
+        out["improvement"][kind] = [
+            [_percent(sign[j] * (v[j] - ref[j]), ref[j]) for j in range(7)] for v in vals[1:]
+        ]
+    return out
 
 
 def write_results(out: str, files: dict[str, str], fig2: dict) -> None:
@@ -347,7 +555,12 @@ def write_results(out: str, files: dict[str, str], fig2: dict) -> None:
 
 def main(argv=None) -> int:
     parser = ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--data", required=True, help="a KuaiRand directory (real or synthetic)")
+    parser.add_argument(
+        "--data",
+        required=True,
+        nargs="+",
+        help="KuaiRand directories (real or synthetic), one per data seed",
+    )
     parser.add_argument(
         "--out", required=True, help="output directory (new or empty, unless --overwrite)"
     )
@@ -361,11 +574,31 @@ def main(argv=None) -> int:
     parser.add_argument("--quick", action="store_true", help="tiny settings (tests)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--steps", type=int, default=None, help="override the update steps")
+    parser.add_argument("--seeds", type=int, default=5, help="training seeds per data set")
+    parser.add_argument(
+        "--part",
+        type=int,
+        default=None,
+        help="train data set PART of --data only and save its scores to OUT (a file)",
+    )
+    parser.add_argument(
+        "--merge", nargs="+", default=None, help="make the table from --part files, in order"
+    )
+    parser.add_argument(
+        "--bc-weight",
+        type=float,
+        default=None,
+        help="the behaviour-cloning term of every actor (0: the ablation without it)",
+    )
     args = parser.parse_args(argv)
-    cfg = QUICK if args.quick else offline.OfflineConfig()
+    cfg = QUICK if args.quick else DEFAULT
     try:
         if args.steps is not None:
             cfg = replace(cfg, steps=args.steps)
+        if args.bc_weight is not None:
+            cfg = replace(cfg, bc_weight=args.bc_weight)
+        if args.seeds < 1:
+            raise ValueError(f"--seeds must be >= 1, got {args.seeds}")
         problem = unwritable_dir(args.out)
         if problem:
             raise ValueError(f"--out {args.out!r} can't be written: {problem}")
@@ -380,7 +613,36 @@ def main(argv=None) -> int:
         print(f"error: {err}", file=sys.stderr)
         return 2
     try:
-        run(args.data, args.out, cfg, args.seed, version=args.version)
+        if args.part is not None:
+            part = data_set_part(
+                args.part,
+                args.data[args.part],
+                cfg,
+                alg1.Alg1Config(),
+                args.seed,
+                args.seeds,
+                args.version,
+                print,
+            )
+            with open(args.out, "wb") as f:
+                pickle.dump(part, f)
+            return 0
+        parts = None
+        if args.merge is not None:
+            parts = []
+            for path in args.merge:
+                with open(path, "rb") as f:
+                    parts.append(pickle.load(f))
+        run(
+            args.data,
+            args.out,
+            cfg,
+            args.seed,
+            version=args.version,
+            seeds=args.seeds,
+            n_boot=50 if args.quick else N_BOOT,
+            parts=parts,
+        )
     except DataError as err:
         print(f"error: {err}", file=sys.stderr)
         return 2

@@ -4,6 +4,7 @@ import math
 
 import jax.numpy as jnp
 import numpy as np
+import pytest
 
 from wcac_jax.recsys import ncis
 
@@ -64,3 +65,42 @@ def test_true_value_hand_computed():
     row1 = [phi(0.5), 2 * phi(0.5)]
     np.testing.assert_allclose(got, np.mean([row0, row1], axis=0), rtol=1e-5)
     del p2
+
+
+def test_effective_sample_size_hand_computed():
+    ess = lambda w: float(ncis.effective_sample_size(jnp.asarray(w, jnp.float32)))
+    assert ess([1.0, 1.0, 1.0, 1.0]) == pytest.approx(4.0)
+    assert ess([2.0, 0.0, 0.0]) == pytest.approx(1.0)
+    assert ess([1.0, 2.0]) == pytest.approx(9.0 / 5.0)
+
+
+def test_oracle_actions_hand_computed():
+    """C = 5, sigma = 1, one signal with values (0, 1, 0, 0.8, 0.8): the best single video
+    is 1, but smoothed by the Gaussian the best mean is 4 (true value 0.006 + 0.8 (0.2417 +
+    0.6915) = 0.7526, against 0.4363 at 1 and 0.6137 at 3). With sigma = 0.01 the best mean
+    is the best video."""
+    v = jnp.array([0.0, 1.0, 0.0, 0.8, 0.8])[None, :, None]
+    assert float(ncis.oracle_actions(v, jnp.ones(1), sigma=1.0)[0]) == 4.0
+    assert float(ncis.oracle_actions(v, jnp.ones(1), sigma=0.01)[0]) == 1.0
+    got = ncis.true_value(jnp.array([4.0, 1.0, 3.0]), jnp.repeat(v, 3, 0), sigma=1.0)
+    np.testing.assert_allclose(got, [(0.7526 + 0.4363 + 0.6137) / 3], atol=2e-4)
+    # two signals, coefficients (1, -2): row 0 prefers video 0 (1 - 0), video 1 (0.5 - 2)
+    e = jnp.array([[[1.0, 0.0], [0.5, 1.0]], [[0.0, 1.0], [1.0, 0.0]]])
+    np.testing.assert_array_equal(ncis.oracle_actions(e, jnp.array([1.0, -2.0]), 0.01), [0, 1])
+
+
+def test_behavior_clone_against_an_independent_behaviour_model_hand_computed():
+    """Behavior-Clone's NCIS when the behaviour model is another policy: sigma = 1, BC
+    acts (0, 0, 2), the behaviour model (0, 1, 2), logged actions (0, 1, 1), rewards
+    (1, 0, 1). Weights: row 0 is 1 (same actions); row 1 exp(((1-1)^2 - (1-0)^2) / 2) =
+    exp(-1/2); row 2 exp(((1-2)^2 - (1-2)^2) / 2) = 1. NCIS = (1 + 1) / (2 + exp(-1/2)),
+    not the logged mean 2/3."""
+    bc = jnp.array([0.0, 0.0, 2.0])
+    beh = jnp.array([0.0, 1.0, 2.0])
+    logged = jnp.array([0.0, 1.0, 1.0])
+    r = jnp.array([[1.0], [0.0], [1.0]])
+    w = ncis.importance_weights(bc, beh, logged, sigma=1.0)
+    np.testing.assert_allclose(w, [1.0, np.exp(-0.5), 1.0], rtol=1e-6)
+    got = ncis.ncis(bc, beh, logged, r, sigma=1.0)
+    np.testing.assert_allclose(got, [2.0 / (2.0 + np.exp(-0.5))], rtol=1e-6)
+    assert float(ncis.effective_sample_size(w)) < 3.0

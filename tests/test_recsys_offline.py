@@ -127,9 +127,8 @@ def _adam_first_step(grad, lr):
     return jax.tree.map(lambda g: -lr * g / (jnp.abs(g) + 1e-8), grad)
 
 
-def _reference_step(method, act, critic_apply, state, new, batch, pref, obj):
+def _reference_step(method, cfg, act, critic_apply, state, new, batch, pref, obj):
     """The update recomputed from the rule's definitions: (critic step, w, actor step)."""
-    spec = offline.SPECS[method]
     feats = batch["action_features"]
     x_sa = jnp.concatenate([batch["x"], offline.action_input(feats, batch["action"])], -1)
     a_next = act(state.actor_target, batch["x_next"])
@@ -141,7 +140,7 @@ def _reference_step(method, act, critic_apply, state, new, batch, pref, obj):
             batch["reward"], x_next, batch["done"], TINY.gamma,
         )[0]  # fmt: skip
 
-    critic_step = _adam_first_step(jax.grad(td_loss)(state.critic.trainable), TINY.critic_lr)
+    critic_step = _adam_first_step(jax.grad(td_loss)(state.critic.trainable), cfg.critic_lr)
 
     def j_of(trainable):  # J_i = mean_B Q_i(s, mu(s)) under the updated critics
         a = act(NetParams(trainable, state.actor.fixed), batch["x"])
@@ -162,31 +161,35 @@ def _reference_step(method, act, critic_apply, state, new, batch, pref, obj):
         if method == "moac":
             w = TINY.momentum * state.weights + (1 - TINY.momentum) * w
     d = jax.tree.map(lambda g: -jnp.tensordot(w * pref, g, axes=1), grads)
-    if spec.bc_weight:
+    if cfg.bc_weight:
 
         def bc_loss(t):
             a = act(NetParams(t, state.actor.fixed), batch["x"])
             return jnp.mean(jnp.square((a - batch["action"]) / 3.0))
 
-        d = jax.tree.map(lambda a, b: a + spec.bc_weight * b, d, jax.grad(bc_loss)(theta))
-    return critic_step, w, _adam_first_step(d, TINY.actor_lr)
+        d = jax.tree.map(lambda a, b: a + cfg.bc_weight * b, d, jax.grad(bc_loss)(theta))
+    return critic_step, w, _adam_first_step(d, cfg.actor_lr)
 
 
+@pytest.mark.parametrize("bc_weight", [1.0, 0.0])
 @pytest.mark.parametrize("method", offline.METHODS)
-def test_one_update_follows_the_methods_rule(method):
+def test_one_update_follows_the_methods_rule(method, bc_weight):
     """One step on a tiny batch: the critics take Adam's first step on the TD loss, and
-    the actor Adam's first step on `d = -sum_i w_i p_i grad J_i` (+ PDPG's supervised
-    term) with the method's weights `w`, recomputed here from their definitions."""
+    the actor Adam's first step on `d = -sum_i w_i p_i grad J_i` (+ the behaviour-cloning
+    term, the same for every method, or none) with the method's weights `w`, recomputed
+    here from their definitions (the per-signal gradients by reverse mode through critic
+    and actor, where the update goes forward through the critic)."""
     data = tiny_protocol()
     spec = offline.SPECS[method]
+    cfg = dataclasses.replace(TINY, bc_weight=bc_weight)
     obj = offline.objectives(data, TINY.gamma, TINY.ub_margin)
-    init, update, act = offline.make_update(spec, TINY, offline.input_dim(data), 4)
+    init, update, act = offline.make_update(spec, cfg, offline.input_dim(data), 4)
     state = init(jax.random.key(0))
     batch = offline.sample_batch(jax.random.key(1), data, 8, obj)
     pref = jnp.array([0.3, 0.1, 0.1, 0.1, 0.1, 0.1, 0.2])
     new, metrics = jax.jit(update)(state, batch, pref, obj)
     _, critic_net = offline.make_networks(spec, TINY, offline.input_dim(data))
-    reference = jax.jit(functools.partial(_reference_step, method, act, critic_net.apply))
+    reference = jax.jit(functools.partial(_reference_step, method, cfg, act, critic_net.apply))
     critic_step, w, actor_step = reference(state, new, batch, pref, obj)
 
     got = jax.tree.map(lambda a, b: a - b, new.critic.trainable, state.critic.trainable)
@@ -220,7 +223,9 @@ def test_wcac_learns_to_recommend_the_clicked_video():
     reward[:, 1:] = 0.5  # the other signals ignore the action
     data = tiny_protocol(n=n, users=20, action=action, reward=reward)
     data = data.replace(n_train=n - 20)
-    cfg = offline.OfflineConfig(steps=600, batch_size=32, width=16, gamma=0.5, critic_warmup=0.2)
+    cfg = offline.OfflineConfig(
+        steps=600, batch_size=32, width=16, gamma=0.5, critic_warmup=0.2, bc_weight=0.0
+    )
     obj = offline.objectives(data, cfg.gamma, cfg.ub_margin)
     train, act = offline.make_train("wcac", cfg, data)
     pref = jnp.array([1.0, 0, 0, 0, 0, 0, 0])
@@ -271,3 +276,23 @@ def test_a_diverging_critic_gives_a_non_finite_loss_that_is_caught():
     assert not np.isfinite(loss[first]) and np.isfinite(loss[:first]).all()
     with pytest.raises(offline.TrainingError, match=f"at step {first + 1} of {cfg.steps}$"):
         offline.check_finite("wcac", "critic loss", loss)
+
+
+def test_bilinear_critic_hand_computed():
+    """`Q = [x, phi] w + b + phi^T V x` with x = (1, 2), phi = (3,):
+    w = (1, 1, 1), b = 0.5, V = (2, -1): 1 + 2 + 3 + 0.5 + 3 * (2 - 2) = 6.5; its action
+    gradient `w_phi + V x = 1 + 0` depends on the state through V."""
+    net = offline.bilinear_network(2, 1)
+    params = NetParams(
+        {"w": jnp.ones((3, 1)), "b": jnp.array([0.5]), "v": jnp.array([[2.0, -1.0]])}, {}
+    )
+    np.testing.assert_allclose(net.apply(params, jnp.array([[1.0, 2.0, 3.0]])), [[6.5]])
+    grad = jax.grad(lambda phi, x: net.apply(params, jnp.r_[x, phi][None])[0, 0])
+    np.testing.assert_allclose(grad(jnp.array([3.0]), jnp.array([1.0, 2.0])), [1.0])
+    np.testing.assert_allclose(grad(jnp.array([3.0]), jnp.array([2.0, 0.0])), [5.0])
+
+
+def test_bc_cotangent_hand_computed():
+    """`d/da mean(((a - l) / (C-1))^2)` with C = 3, a = (2, 0), l = (0, 0): (2*2/4/2, 0)."""
+    got = offline.bc_cotangent(jnp.array([2.0, 0.0]), jnp.array([0.0, 0.0]), 3)
+    np.testing.assert_allclose(got, [0.5, 0.0])

@@ -8,7 +8,9 @@ Behavior-Clone scored against itself (`w = 1`) returns the logged test means.
 
 The ground truth (synthetic data only): the policy's expected signals when its Gaussian
 action is rounded to the nearest candidate and clipped to `[0, C-1]`, under the
-generator's response model (`synth.ResponseModel.expected`), averaged over the test rows.
+generator's response model (`synth.ResponseModel.expected`), averaged over the test rows;
+and the oracle, the Gaussian policy of the same width whose mean maximises that true
+value of a given objective row by row.
 """
 
 from __future__ import annotations
@@ -87,6 +89,39 @@ def true_value(action: chex.Array, expected: chex.Array, sigma: float = SIGMA) -
     Returns:
       `[m]` `mean_n sum_j P_nj E[r | user_n, video_j]`.
     """
+    return jnp.mean(true_rows(action, expected, sigma), axis=0)
+
+
+def true_rows(action: chex.Array, expected: chex.Array, sigma: float = SIGMA) -> chex.Array:
+    """`true_value` row by row: `[n, m]`, `sum_j P_nj E[r | user_n, video_j]`."""
     chex.assert_rank(expected, 3)
     p = index_probabilities(action, expected.shape[1], sigma)
-    return jnp.mean(jnp.einsum("nc,ncm->nm", p, expected), axis=0)
+    return jnp.einsum("nc,ncm->nm", p, expected)
+
+
+def effective_sample_size(weights: chex.Array) -> chex.Array:
+    """Kish's effective sample size of importance weights, `(sum w)^2 / sum w^2`: `[n] -> []`.
+
+    `n` when every weight is equal, 1 when one weight carries everything.
+    """
+    return jnp.square(jnp.sum(weights)) / jnp.sum(jnp.square(weights))
+
+
+def oracle_actions(expected: chex.Array, coeff: chex.Array, sigma: float = SIGMA) -> chex.Array:
+    """The best Gaussian policy's mean for each row under the true response model.
+
+    Among the means `g = 0, 1, ..., C-1`, the one whose smoothed policy (`N(g, sigma^2)`,
+    rounded and clipped to a candidate, as `true_value` scores it) maximises the row's
+    preference-weighted true value `sum_j P(j | g) E[r | row, video_j] . coeff`.
+
+    Args:
+      expected: `[n, C, m]` true expected signals of each candidate for each row.
+      coeff: `[m]` the objective's weight of each signal (preference times scale).
+
+    Returns:
+      `[n]` the best means (float).
+    """
+    c = expected.shape[1]
+    probs = index_probabilities(jnp.arange(c, dtype=jnp.float32), c, sigma)  # [G=C, C]
+    value = (expected @ coeff) @ probs.T  # [n, G]
+    return jnp.argmax(value, axis=-1).astype(jnp.float32)

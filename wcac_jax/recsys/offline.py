@@ -1,6 +1,7 @@
 """Offline multi-objective actor-critics on the protocol's logged transitions, and
 Behavior-Clone; each `train(key, pref, data, objectives)` is one pure function, a
-`lax.scan` over steps, that the caller vmaps over preferences in one compiled program.
+`lax.scan` over steps, that the caller vmaps over preferences (or seeds) in one compiled
+program. The paper's Algorithm 1 is `wcac_jax.recsys.alg1`; these four are DDPG-style.
 
 All four actor-critics share everything but their network class and their rule for
 combining the `m = 7` per-signal objectives (`METHODS`):
@@ -15,35 +16,42 @@ combining the `m = 7` per-signal objectives (`METHODS`):
   itself (7 numbers), so that `Q` is differentiable in `a` and shares what it learns
   across similar videos;
 - per-signal objectives `J_i = mean_batch Q_i(s, mu_theta(s))` and deterministic policy
-  gradients `grad J_i`; rewards are divided by their training means and multiplied by
-  `1 - gamma` (values of order 1 for every signal), and dislike is negated, so every
-  objective is maximised and one preference vector weighs comparable numbers;
+  gradients `grad J_i = mean_B dQ_i/da dmu/dtheta` (one forward-mode pass through the
+  critics for every `dQ_i/da`, then the actor alone); rewards are divided by their
+  training means and multiplied by `1 - gamma` (values of order 1 for every signal), and
+  dislike is negated, so every objective is maximised and one preference vector weighs
+  comparable numbers;
+- the same behaviour-cloning term for every method, `bc_weight * mean(((mu(s) - a) /
+  (C-1))^2)` pulling the actor towards the logged actions (`OfflineConfig.bc_weight`;
+  0 turns it off for all);
 - the actor's step: Adam (`wcac_jax.actor.make_optimizer("adam")`) on a direction `d`;
   the first `critic_warmup` of the steps train the critics only.
 
 The combination rules:
 
-- `wcac` (the paper, DNN): smoothed weighted Chebyshev, `d = -sum_i lambda_i p_i grad J_i`
-  with `lambda = softmax(p (J_ub - J) / mu)` (`scalarize.smooth_wc_weights`), in one
-  backward pass;
+- `wcac` (DNN, DDPG-style): smoothed weighted Chebyshev,
+  `d = -sum_i lambda_i p_i grad J_i` with `lambda = softmax(p (J_ub - J) / mu)`
+  (`scalarize.smooth_wc_weights`), in one backward pass;
 - `pdpg` (DNN): PDPG's idea as RECSYS.md §4 states it (its exact rule is not public):
   min-norm (MGDA) weights over the preference-scaled per-signal gradients
-  (`actor.min_norm_weights`), plus a supervised term `bc_weight * mean((mu(s) - a)^2) /
-  (C-1)^2` pulling the actor towards the logged actions;
-- `moac` (linear): MOAC's idea (exact rule not reproduced): the same min-norm weights,
-  smoothed by momentum across steps, `lambda_t = momentum lambda_{t-1} + (1 - momentum)
-  lambda_minnorm`, with linear actor and critics;
-- `mocha` (linear): MOCHA's idea (exact rule not reproduced): hard weighted Chebyshev
-  with the given weight vector, `d = -sum_i w_i p_i grad J_i` with `w` one-hot on the
-  largest `p_i (J_ub_i - J_i)` (`scalarize.wc_weights`), linear actor and critics.
+  (`actor.min_norm_weights`);
+- `moac` (linear actor): MOAC's idea (exact rule not reproduced): the same min-norm
+  weights, smoothed by momentum across steps, `lambda_t = momentum lambda_{t-1} +
+  (1 - momentum) lambda_minnorm`;
+- `mocha` (linear actor): MOCHA's idea (exact rule not reproduced): hard weighted
+  Chebyshev with the given weight vector, `d = -sum_i w_i p_i grad J_i` with `w` one-hot
+  on the largest `p_i (J_ub_i - J_i)` (`scalarize.wc_weights`).
 
 `J_ub` is the logged behaviour's mean discounted value per objective plus
 `ub_margin * |value|` (computed by `objectives`). DNN networks are 3-layer ReLU
-perceptrons (two hidden layers of `width`, `networks.mlp_network`); linear ones a single
-affine layer. The candidate block of the state is identically zero after normalisation
-(`data.states`), so the networks take the user and history blocks only: their weights on
-the zero block would never move and contribute nothing, so this is the same function,
-about seven times cheaper.
+perceptrons (two hidden layers of `width`, `networks.mlp_network`). The linear methods are
+policy-linear: a single affine actor layer, and critics linear in the state for each
+action plus a state-action interaction (`bilinear_network`), the critic under which a
+deterministic policy gradient depends on the state (with a critic affine in `(s, a)` the
+gradient `dQ/da` is the same in every state). The candidate block of the state is
+identically zero after normalisation (`data.states`), so the networks take the user and
+history blocks only: their weights on the zero block would never move and contribute
+nothing, so this is the same function, about seven times cheaper.
 """
 
 from __future__ import annotations
@@ -75,12 +83,11 @@ class MethodSpec:
 
     network: str  # "dnn" | "linear"
     combine: str  # one of COMBINE_RULES
-    bc_weight: float = 0.0
 
 
 SPECS = {
     "wcac": MethodSpec("dnn", "smooth_wc"),
-    "pdpg": MethodSpec("dnn", "min_norm", bc_weight=1.0),
+    "pdpg": MethodSpec("dnn", "min_norm"),
     "moac": MethodSpec("linear", "min_norm_momentum"),
     "mocha": MethodSpec("linear", "wc"),
 }
@@ -101,6 +108,8 @@ class OfflineConfig:
       ub_margin: `J_ub = J_behaviour + ub_margin * |J_behaviour|`.
       momentum: MOAC's momentum on its weights.
       critic_warmup: share of the steps that train the critics only.
+      bc_weight: weight of the behaviour-cloning term `mean(((mu(s) - a) / (C-1))^2)`
+        added to every actor's loss (the same for every method; 0 turns it off for all).
     """
 
     steps: int = 2000
@@ -114,6 +123,7 @@ class OfflineConfig:
     ub_margin: float = 0.2
     momentum: float = 0.9
     critic_warmup: float = 0.25
+    bc_weight: float = 1.0
 
     def __post_init__(self):
         if self.steps < 1 or self.batch_size < 1 or self.width < 1:
@@ -200,6 +210,36 @@ def linear_network(in_dim: int, out_dim: int) -> Network:
     return Network(init, apply)
 
 
+def bilinear_network(in_dim: int, action_dim: int) -> Network:
+    """A critic linear in the state for each action and in the action for each state:
+    `Q(x, phi) = [x, phi] w + b + phi^T V x` on inputs `[x, phi]` (`phi` the last
+    `action_dim` entries), zero-initialised.
+
+    A critic affine in `[x, phi]` has `dQ/dphi = w_phi` in every state, so its
+    deterministic policy gradient pushes every state's action the same way; the `phi^T V x`
+    term makes the gradient depend on the state, which a linear policy can then follow.
+    """
+
+    def init(key: chex.PRNGKey) -> NetParams:
+        del key
+        return NetParams(
+            {
+                "w": jnp.zeros((in_dim + action_dim, 1)),
+                "b": jnp.zeros((1,)),
+                "v": jnp.zeros((action_dim, in_dim)),
+            },
+            {},
+        )
+
+    def apply(params: NetParams, x: chex.Array) -> chex.Array:
+        p = params.trainable
+        s, phi = x[..., :in_dim], x[..., in_dim:]
+        inter = jnp.sum((phi @ p["v"]) * s, axis=-1, keepdims=True)
+        return x @ p["w"] + p["b"] + inter
+
+    return Network(init, apply)
+
+
 def net_input(data: Protocol, rows: chex.Array) -> chex.Array:
     """The networks' input: the state without its all-zero candidate block, `[B, 24 + 6H]`."""
     user = data.user_table[data.user_index[rows]]
@@ -254,7 +294,7 @@ def make_networks(spec: MethodSpec, cfg: OfflineConfig, in_dim: int):
             make_network("mlp", in_dim + 7, 1, cfg.width, 2),
         )
     if spec.network == "linear":
-        return linear_network(in_dim, 1), linear_network(in_dim + 7, 1)
+        return linear_network(in_dim, 1), bilinear_network(in_dim, 7)
     raise ValueError(f"unknown network class {spec.network!r}; valid: dnn, linear")
 
 
@@ -318,6 +358,11 @@ def combine_weights(
     raise ValueError(f"unknown combination rule {spec.combine!r}; valid: {COMBINE_RULES}")
 
 
+def bc_cotangent(a: chex.Array, logged: chex.Array, n_candidates: int) -> chex.Array:
+    """`d/da` of the behaviour-cloning loss `mean_B(((a - logged) / (C-1))^2)`: `[B]`."""
+    return 2.0 * (a - logged) / (jnp.square(n_candidates - 1.0) * a.shape[0])
+
+
 def _flat(tree) -> chex.Array:
     """`[m, ...]`-leading pytree -> `[m, n_params]`."""
     return jnp.concatenate([g.reshape(g.shape[0], -1) for g in jax.tree.leaves(tree)], axis=1)
@@ -355,6 +400,11 @@ def make_update(spec: MethodSpec, cfg: OfflineConfig, in_dim: int, n_candidates:
 
     def update(state: OfflineState, batch, pref, obj: Objectives):
         feats = batch["action_features"]
+
+        def q_of(critic, a):  # [B] actions -> [B, m] Q_i(s, a)
+            x_pi = jnp.concatenate([batch["x"], action_input(feats, a)], axis=-1)
+            return critic_lib.values(critic_net.apply, critic, x_pi)
+
         x_sa = jnp.concatenate([batch["x"], action_input(feats, batch["action"])], axis=-1)
         a_next = act(state.actor_target, batch["x_next"])
         x_next = jnp.concatenate([batch["x_next"], action_input(feats, a_next)], axis=-1)
@@ -372,32 +422,30 @@ def make_update(spec: MethodSpec, cfg: OfflineConfig, in_dim: int, n_candidates:
         cupd, critic_opt_state = critic_opt.update(cgrad, state.critic_opt)
         critic = state.critic.replace(trainable=optax.apply_updates(state.critic.trainable, cupd))
 
-        def objectives_of(trainable):  # [m]: J_i = mean_B Q_i(s, mu_theta(s))
-            a = act(NetParams(trainable, state.actor.fixed), batch["x"])
-            x_pi = jnp.concatenate([batch["x"], action_input(feats, a)], axis=-1)
-            return jnp.mean(critic_lib.values(critic_net.apply, critic, x_pi), axis=0)
-
-        j_hat = objectives_of(state.actor.trainable)
+        # DPG through the updated critics: grad J_i = mean_B dQ_i/da (s, mu(s)) dmu(s)/dtheta.
+        # One forward-mode pass gives every dQ_i/da (the action is a scalar), then the
+        # actor alone is differentiated: m actor passes instead of m critic passes.
+        a_pi, mu_vjp = jax.vjp(
+            lambda t: act(NetParams(t, state.actor.fixed), batch["x"]), state.actor.trainable
+        )
+        q_pi, dq_da = jax.jvp(
+            lambda a: q_of(critic, a), (a_pi,), (jnp.ones_like(a_pi),)
+        )  # [B, m] each
+        j_hat = jnp.mean(q_pi, axis=0)
+        b = a_pi.shape[0]
         if spec.combine in ("smooth_wc", "wc"):
             w = combine_weights(spec, j_hat, pref, obj.j_ub, cfg.mu, None, state.weights, 0.0)
-            coeff = jax.lax.stop_gradient(w * pref)
-            grad = jax.grad(lambda t: -jnp.dot(coeff, objectives_of(t)))(state.actor.trainable)
-        else:  # m backward passes: the per-signal gradients, preference-scaled
-            grads = jax.jacrev(objectives_of)(state.actor.trainable)  # leaves [m, ...]
-            scaled = jax.tree.map(lambda g: g * pref.reshape((-1,) + (1,) * (g.ndim - 1)), grads)
+            (grad,) = mu_vjp(-(dq_da @ (w * pref)) / b)
+        else:  # the m per-signal gradients, preference-scaled
+            scaled = jax.vmap(lambda c: mu_vjp(c)[0])((dq_da * pref).T / b)  # leaves [m, ...]
             flat = _flat(scaled)
             w = combine_weights(
                 spec, j_hat, pref, obj.j_ub, cfg.mu, flat @ flat.T, state.weights, cfg.momentum
             )
             grad = jax.tree.map(lambda g: -jnp.tensordot(w, g, axes=1), scaled)
-        if spec.bc_weight > 0.0:
-
-            def bc_loss(trainable):
-                a = act(NetParams(trainable, state.actor.fixed), batch["x"])
-                return jnp.mean(jnp.square((a - batch["action"]) / (n_candidates - 1.0)))
-
-            bc_grad = jax.grad(bc_loss)(state.actor.trainable)
-            grad = jax.tree.map(lambda g, b: g + spec.bc_weight * b, grad, bc_grad)
+        if cfg.bc_weight > 0.0:
+            (bc_grad,) = mu_vjp(bc_cotangent(a_pi, batch["action"], n_candidates))
+            grad = jax.tree.map(lambda g, c: g + cfg.bc_weight * c, grad, bc_grad)
         aupd, actor_opt_state = actor_opt.update(grad, state.actor_opt, state.actor.trainable)
         train_actor = state.step >= warmup
         new_actor = jax.tree.map(
@@ -447,6 +495,7 @@ def sample_batch(key: chex.PRNGKey, data: Protocol, batch_size: int, obj: Object
         "reward": data.reward[rows] * obj.scale,
         "done": data.done[rows],
         "action_features": data.action_features,
+        "rows": rows,
     }
 
 

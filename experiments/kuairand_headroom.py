@@ -1,0 +1,84 @@
+"""How much the recommendation table can show: the Behavior-Clone -> oracle gap of the
+unified objective against the evaluation's Gaussian width sigma (no actor-critic trained).
+
+    python experiments/kuairand_headroom.py --data DIR [DIR ...] --out OUT [--steps T]
+
+On each synthetic `DIR` (one per data seed): Behavior-Clone (the table's configuration),
+then, for each `sigma`, the true value of the unified objective (`kuairand_table2`'s) of
+Behavior-Clone's Gaussian, of the oracle's (the best mean per test row for that sigma),
+and of the logged actions. Writes `OUT/headroom.json`: per sigma, the means over data sets
+and the gap `oracle - bc` in units of the unified objective.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+from dataclasses import replace
+
+import jax
+import jax.numpy as jnp
+import kuairand_table2 as table2
+import numpy as np
+
+from wcac_jax.recsys import ncis as ncis_lib
+from wcac_jax.recsys import offline
+from wcac_jax.recsys.cli import ArgumentParser
+from wcac_jax.recsys.data import load
+from wcac_jax.recsys.synth import MODEL_FILE, ResponseModel
+
+SIGMAS = (25.0, 10.0, 5.0, 2.0, 0.5)
+
+
+def headroom(data_dir: str, cfg: offline.OfflineConfig, seed: int) -> dict:
+    """`{sigma: {"bc", "oracle", "gap"}}` and the logged actions' value on one data set."""
+    data = load(data_dir)
+    model = ResponseModel.load(os.path.join(data_dir, MODEL_FILE))
+    obj = offline.objectives(data, cfg.gamma, cfg.ub_margin)
+    coeff = table2.UNIFIED * np.asarray(obj.scale, np.float64) / (1.0 - cfg.gamma)
+    truth = table2._truth_tables(model, data)  # [n, C, 7]
+    train, act = offline.make_train_bc(cfg, data)
+    params, _ = jax.jit(train)(jax.random.key(seed), data)
+    bc = jnp.asarray(table2._test_actions(act, params, data, False), jnp.float32)
+    c32 = jnp.asarray(coeff, jnp.float32)
+    out = {}
+    for sigma in SIGMAS:
+        oracle = ncis_lib.oracle_actions(truth, c32, sigma)
+        v_bc = float(np.asarray(ncis_lib.true_value(bc, truth, sigma)) @ coeff)
+        v_or = float(np.asarray(ncis_lib.true_value(oracle, truth, sigma)) @ coeff)
+        out[str(sigma)] = {"bc": v_bc, "oracle": v_or, "gap": v_or - v_bc}
+    logged = np.asarray(data.action[data.n_train :])
+    rows = np.arange(logged.shape[0])
+    logged_value = float(np.asarray(truth)[rows, logged].mean(axis=0) @ coeff)
+    return {"sigma": out, "logged": logged_value}
+
+
+def main(argv=None) -> int:
+    parser = ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--data", required=True, nargs="+")
+    parser.add_argument("--out", required=True)
+    parser.add_argument("--steps", type=int, default=table2.DEFAULT.steps)
+    parser.add_argument("--seed", type=int, default=0)
+    args = parser.parse_args(argv)
+    cfg = replace(table2.DEFAULT, steps=args.steps)
+    per = [headroom(d, cfg, args.seed) for d in args.data]
+    result = {
+        "data_seeds": [os.path.basename(os.path.normpath(d)) for d in args.data],
+        "bc_steps": cfg.steps,
+        "sigma": {
+            s: {k: float(np.mean([p["sigma"][s][k] for p in per])) for k in ("bc", "oracle", "gap")}
+            for s in per[0]["sigma"]
+        },
+        "logged": float(np.mean([p["logged"] for p in per])),
+        "per_data_set": per,
+    }
+    os.makedirs(args.out, exist_ok=True)
+    with open(os.path.join(args.out, "headroom.json"), "w") as f:
+        f.write(json.dumps(result, indent=2) + "\n")
+    print(json.dumps(result["sigma"], indent=1), "logged", result["logged"])
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
