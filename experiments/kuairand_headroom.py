@@ -2,12 +2,14 @@
 unified objective against the evaluation's Gaussian width sigma (no actor-critic trained).
 
     python experiments/kuairand_headroom.py --data DIR [DIR ...] --out OUT [--steps T]
+        [--protocol default|tscac]
 
 On each synthetic `DIR` (one per data seed): Behavior-Clone (the table's configuration),
 then, for each `sigma`, the true value of the unified objective (`kuairand_table2`'s) of
 Behavior-Clone's Gaussian, of the oracle's (the best mean per test row for that sigma),
-and of the logged actions. Writes `OUT/headroom.json`: per sigma, the means over data sets
-and the gap `oracle - bc` in units of the unified objective.
+and of the logged actions, each test row valued in its logged session context. Writes
+`OUT/headroom.json`: per sigma, the means over data sets and the gap
+`oracle - bc` in units of the unified objective.
 """
 
 from __future__ import annotations
@@ -25,15 +27,15 @@ import numpy as np
 from wcac_jax.recsys import ncis as ncis_lib
 from wcac_jax.recsys import offline
 from wcac_jax.recsys.cli import ArgumentParser
-from wcac_jax.recsys.data import load
+from wcac_jax.recsys.data import PROTOCOLS, load
 from wcac_jax.recsys.synth import MODEL_FILE, ResponseModel
 
 SIGMAS = (25.0, 10.0, 5.0, 2.0, 0.5)
 
 
-def headroom(data_dir: str, cfg: offline.OfflineConfig, seed: int) -> dict:
+def headroom(data_dir: str, cfg: offline.OfflineConfig, seed: int, protocol="default") -> dict:
     """`{sigma: {"bc", "oracle", "gap"}}` and the logged actions' value on one data set."""
-    data = load(data_dir)
+    data = load(data_dir, protocol=protocol)
     model = ResponseModel.load(os.path.join(data_dir, MODEL_FILE))
     obj = offline.objectives(data, cfg.gamma, cfg.ub_margin)
     coeff = table2.UNIFIED * np.asarray(obj.scale, np.float64) / (1.0 - cfg.gamma)
@@ -60,10 +62,12 @@ def main(argv=None) -> int:
     parser.add_argument("--out", required=True)
     parser.add_argument("--steps", type=int, default=table2.DEFAULT.steps)
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--protocol", choices=PROTOCOLS, default="default")
     args = parser.parse_args(argv)
     cfg = replace(table2.DEFAULT, steps=args.steps)
-    per = [headroom(d, cfg, args.seed) for d in args.data]
+    per = [headroom(d, cfg, args.seed, args.protocol) for d in args.data]
     result = {
+        "protocol": args.protocol,
         "data_seeds": [os.path.basename(os.path.normpath(d)) for d in args.data],
         "bc_steps": cfg.steps,
         "sigma": {

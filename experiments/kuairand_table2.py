@@ -2,20 +2,21 @@
 
     python experiments/kuairand_table2.py --data DIR [DIR ...] --out OUT [--quick]
         [--seed S] [--seeds N] [--steps T] [--bc-weight W] [--version 27k|1k|pure]
-        [--overwrite]
+        [--protocol default|tscac] [--overwrite]
 
-reads each `DIR` (real KuaiRand-27K, -1K or -Pure files, found by their names, or
-`python -m wcac_jax.recsys.synth`'s; one directory per data seed), builds the protocol's
-offline transitions, and on each trains with `--seeds` training seeds (one compiled
-program per method, vmapped over seeds): Behavior-Clone, an independent behaviour model
-(another Behavior-Clone), the DDPG-style actor-critics (MOAC, MOCHA, PDPG, wcac;
-`wcac_jax.recsys.offline`) and the paper's Algorithm 1 (`wcac_jax.recsys.alg1`), all with
-the unified preference and the same budget and behaviour-cloning term; on the first data
-set, Algorithm 1 also with 7 preferences each leaning to one signal (Fig. 2). Every policy
-is scored on the test rows by NCIS against the behaviour model and, when `DIR` holds the
-generator's response model, by its true expected signals; the Oracle is the best Gaussian
-policy of the evaluation's width for the unified objective under that model. Writes to
-`OUT`:
+reads each `DIR` (real KuaiRand-27K, -1K or -Pure files, found by their names, or `python
+-m wcac_jax.recsys.synth`'s; one directory per data seed), builds the protocol's offline
+transitions (`--protocol`: `wcac_jax.recsys.data.load`'s), and on each trains with
+`--seeds` training seeds (one compiled program per method, vmapped over seeds):
+Behavior-Clone, an independent behaviour model (another Behavior-Clone), the DDPG-style
+actor-critics (MOAC, MOCHA, PDPG, wcac; `wcac_jax.recsys.offline`) and the paper's
+Algorithm 1 (`wcac_jax.recsys.alg1`), all with the unified preference and the same budget
+and behaviour-cloning term; on the first data set, Algorithm 1 also with 7 preferences
+each leaning to one signal (Fig. 2). Every policy is scored on the test rows by NCIS
+against the behaviour model and, when `DIR` holds the generator's response model, by its
+true expected signals (each test row's candidates shown to its user in its logged session
+context); the Oracle is the best Gaussian policy of the evaluation's width for the unified
+objective under that model. Writes to `OUT`:
 
 - `table.json`: `{"seeds", "data_seeds", "methods": {name: {"ncis", "ncis_ci95",
   "vs_bc", "vs_bc_ci95", "ess", "truth", "truth_ci95", "truth_vs_bc",
@@ -59,7 +60,7 @@ from wcac_jax.outputs import unwritable_dir
 from wcac_jax.recsys import alg1, offline, stats
 from wcac_jax.recsys import ncis as ncis_lib
 from wcac_jax.recsys.cli import ArgumentParser
-from wcac_jax.recsys.data import SIGNALS, DataError, Protocol, load
+from wcac_jax.recsys.data import PROTOCOLS, SIGNALS, DataError, Protocol, for_test_rows, load
 from wcac_jax.recsys.kuairand import VERSIONS
 from wcac_jax.recsys.synth import MODEL_FILE, ResponseModel
 
@@ -102,9 +103,12 @@ DEFAULT = offline.OfflineConfig(steps=2000, batch_size=256, width=64)
 
 
 def _test_actions(act, params, data: Protocol, batch_axis: bool, rows=None, chunk: int = 4096):
-    """The policy's `action(s)` on `rows` (default: the test rows): `[P, n]` (or `[n]`)."""
+    """The policy's `action(s)` on `rows` (default: the test rows, with the test split's
+    normalisation, `for_test_rows`; pass that yourself with other test `rows`): `[P, n]`
+    (or `[n]`)."""
     fn = jax.jit(jax.vmap(act, in_axes=(0, None)) if batch_axis else act)
-    rows = np.arange(data.n_train, data.n_rows) if rows is None else rows
+    if rows is None:
+        data, rows = for_test_rows(data), np.arange(data.n_train, data.n_rows)
     out = []
     for start in range(0, rows.shape[0], chunk):
         r = jnp.asarray(rows[start : start + chunk])
@@ -112,12 +116,22 @@ def _test_actions(act, params, data: Protocol, batch_axis: bool, rows=None, chun
     return np.concatenate(out, axis=-1)
 
 
-def _truth_tables(model: ResponseModel, data: Protocol):
-    """`[n_test, C, 7]` true expected signals of each candidate for each test row's user."""
-    users = np.asarray(data.user_index[data.n_train :])
-    uniq, inv = np.unique(users, return_inverse=True)
-    table = model.expected(data.user_ids[uniq][:, None], data.video_ids[None, :])
-    return jnp.asarray(table[inv], jnp.float32)
+def _test_contexts(model: ResponseModel, data: Protocol) -> np.ndarray:
+    """`[n_test, K]` each test row's logged session context (video ids, -1 none)."""
+    return model.logged_context(np.asarray(data.log_row[data.n_train :]))
+
+
+def _truth_tables(model: ResponseModel, data: Protocol, chunk: int = 1024):
+    """`[n_test, C, 7]` true expected signals of each candidate shown in place of each
+    test row's logged video: that row's user, in that row's logged session context."""
+    users = data.user_ids[np.asarray(data.user_index[data.n_train :])]
+    context = _test_contexts(model, data)
+    out = np.empty((users.shape[0], data.n_candidates, 7), np.float32)
+    for s in range(0, users.shape[0], chunk):  # [chunk, C, K] intermediates stay small
+        out[s : s + chunk] = model.expected(
+            users[s : s + chunk, None], data.video_ids[None, :], context[s : s + chunk, None, :]
+        )
+    return jnp.asarray(out)
 
 
 def _percent(diff: float, ref: float):
@@ -236,7 +250,14 @@ def train_data_set(data: Protocol, cfg, acfg, key, seeds: int, lean: bool, log):
     bc_params, bc_losses = jax.jit(jax.vmap(bc_train, in_axes=(0, None)))(bc_keys, data)
     for losses in np.asarray(bc_losses):  # one row per key
         offline.check_finite(NAMES["bc"], "loss", losses)
-    every = _test_actions(bc_act, bc_params, data, True, rows=np.arange(data.n_rows))
+    train_rows, test_rows = np.arange(data.n_train), np.arange(data.n_train, data.n_rows)
+    every = np.concatenate(  # each split's rows with its own normalisation (tscac)
+        [
+            _test_actions(bc_act, bc_params, data, True, rows=train_rows),
+            _test_actions(bc_act, bc_params, for_test_rows(data), True, rows=test_rows),
+        ],
+        axis=-1,
+    )
     behaviour = every[-1]
     actions["bc"] = every[:seeds, data.n_train :]
     times["bc"] = time.perf_counter() - t
@@ -364,11 +385,13 @@ def summarise(per_data: list, draws: list, has_truth: bool) -> dict:
     return methods
 
 
-def data_set_part(d: int, data_dir: str, cfg, acfg, seed: int, seeds: int, version, log):
+def data_set_part(
+    d: int, data_dir: str, cfg, acfg, seed: int, seeds: int, version, log, protocol="default"
+):
     """Everything the table needs from data set `d` (host numpy; picklable): the per-row
     scores of every method, the training curves, times, sizes and the logged values."""
     t = time.perf_counter()
-    data = load(data_dir, version=version)
+    data = load(data_dir, version=version, protocol=protocol)
     log(
         f"data set {d} ({data_dir}): {data.n_rows} rows ({data.n_train} train), "
         f"state {data.state_dim} dims, {time.perf_counter() - t:.1f}s"
@@ -398,7 +421,8 @@ def data_set_part(d: int, data_dir: str, cfg, acfg, seed: int, seeds: int, versi
     if model is not None:
         users = np.asarray(data.user_index[data.n_train :])
         vids = data.video_ids[np.asarray(data.action[data.n_train :])]
-        logged["truth"] = _signals(model.expected(data.user_ids[users], vids).mean(axis=0))
+        ctx = _test_contexts(model, data)
+        logged["truth"] = _signals(model.expected(data.user_ids[users], vids, ctx).mean(axis=0))
     size = {
         "data": os.path.abspath(data_dir),
         "rows": data.n_rows,
@@ -412,6 +436,7 @@ def data_set_part(d: int, data_dir: str, cfg, acfg, seed: int, seeds: int, versi
     }
     return {
         "name": os.path.basename(os.path.normpath(data_dir)),
+        "protocol": protocol,
         "scores": score_rows(actions, behaviour, data, truth_table, coeff),
         "curves": curves,
         "times": {k: round(v, 1) for k, v in times.items()},
@@ -434,20 +459,24 @@ def run(
     acfg: alg1.Alg1Config | None = None,
     n_boot: int = N_BOOT,
     parts: list | None = None,
+    protocol: str = "default",
 ) -> dict:
     """The whole experiment; returns `table.json`'s content.
 
     Each of `data_dirs` is one data set (one data seed); on each, every method is trained
     with `seeds` training seeds. `version` is the KuaiRand layout (`27k`, `1k`, `pure`;
-    by default found from the file names). `parts` (from `data_set_part`, e.g. run in
-    separate processes) replace the training."""
+    by default found from the file names); `protocol` is `load`'s. `parts` (from
+    `data_set_part`, e.g. run in separate processes) replace the training."""
     acfg = alg1.Alg1Config() if acfg is None else acfg
     t0 = time.perf_counter()
     if parts is None:
         parts = [
-            data_set_part(d, p, cfg, acfg, seed, seeds, version, log)
+            data_set_part(d, p, cfg, acfg, seed, seeds, version, log, protocol)
             for d, p in enumerate(data_dirs)
         ]
+    protocols = sorted({p.get("protocol", "default") for p in parts})
+    if len(protocols) != 1:
+        raise DataError(f"the parts were made under different protocols: {protocols}")
     rng = np.random.default_rng(seed)
     draws = [stats.draw(rng, p["size"]["test_rows"], seeds, n_boot) for p in parts]
     has_truth = all(p["has_truth"] for p in parts)
@@ -467,6 +496,7 @@ def run(
     total = time.perf_counter() - t0 + sum(sum(p["times"].values()) for p in parts)
     run_info = {
         "synthetic": has_truth,
+        "protocol": protocols[0],
         "data_sets": [p["size"] for p in parts],
         "seeds": seeds,
         "config": asdict(cfg),
@@ -571,6 +601,12 @@ def main(argv=None) -> int:
         default=None,
         help="the KuaiRand layout (default: found from the file names)",
     )
+    parser.add_argument(
+        "--protocol",
+        choices=PROTOCOLS,
+        default="default",
+        help="how the offline transitions are built (wcac_jax.recsys.data.load)",
+    )
     parser.add_argument("--quick", action="store_true", help="tiny settings (tests)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--steps", type=int, default=None, help="override the update steps")
@@ -623,6 +659,7 @@ def main(argv=None) -> int:
                 args.seeds,
                 args.version,
                 print,
+                args.protocol,
             )
             with open(args.out, "wb") as f:
                 pickle.dump(part, f)
@@ -642,6 +679,7 @@ def main(argv=None) -> int:
             seeds=args.seeds,
             n_boot=50 if args.quick else N_BOOT,
             parts=parts,
+            protocol=args.protocol,
         )
     except DataError as err:
         print(f"error: {err}", file=sys.stderr)

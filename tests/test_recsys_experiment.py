@@ -207,3 +207,50 @@ def test_interrupted_write_leaves_the_old_results_whole(run, old_results, monkey
         kuairand_table2.write_results(str(old_results), {"table.json": "{}\n"}, fig2)
     assert _tree(old_results) == before
     assert os.listdir(old_results.parent) == ["kuairand"]
+
+
+def test_truth_is_each_test_rows_candidates_in_its_logged_session_context(run):
+    """`_truth_tables[i, j]`: candidate `j` shown to test row `i`'s user after the videos
+    logged earlier in that row's session; checked by hand (P(click) from the model's
+    logit and bias) on a few rows, and different from a first view where the session
+    has begun."""
+    data_dir, _ = run
+    data = load(data_dir)
+    model = synth.ResponseModel.load(os.path.join(data_dir, synth.MODEL_FILE))
+    table = np.asarray(kuairand_table2._truth_tables(model, data, chunk=7))
+    n_test = data.n_rows - data.n_train
+    assert table.shape == (n_test, data.n_candidates, 7)
+    rows = np.asarray(data.log_row[data.n_train :])
+    ctx = model.log_context[rows]  # [n_test, K] video ids, -1 none
+    begun = np.flatnonzero((ctx >= 0).any(axis=1))
+    fresh = np.flatnonzero((ctx < 0).all(axis=1))
+    assert begun.size > 0 and fresh.size > 0
+    users = data.user_ids[np.asarray(data.user_index[data.n_train :])]
+    for i in (*begun[:3], fresh[0]):
+        ui = np.searchsorted(model.user_ids, users[i])
+        ci = np.array([np.searchsorted(model.video_ids, v) if v >= 0 else -1 for v in ctx[i]])
+        for j in (0, 5, data.n_candidates - 1):
+            vi = np.searchsorted(model.video_ids, data.video_ids[j])
+            logit, _ = model.logits(np.array(ui), np.array(vi), ci)
+            click = 1.0 / (1.0 + math.exp(-(model.bias[0] + float(logit["is_click"]))))
+            assert table[i, j, 0] == pytest.approx(click, rel=1e-5)
+            want = model.expected(users[i], data.video_ids[j], ctx[i])
+            np.testing.assert_allclose(table[i, j], want, rtol=1e-5)
+    first = model.expected(users[:, None], data.video_ids[None, :])  # first views
+    np.testing.assert_allclose(table[fresh], first[fresh], rtol=1e-5)
+    assert not np.allclose(table[begun], first[begun], rtol=1e-3)
+
+
+def test_tscac_protocol_runs_and_is_recorded(run, tmp_path):
+    data_dir, out = run
+    assert json.load(open(os.path.join(out, "run.json")))["protocol"] == "default"
+    out_t = str(tmp_path / "tscac")
+    argv = ["--data", data_dir, "--out", out_t, "--quick", "--seeds", "1", "--protocol", "tscac"]
+    assert kuairand_table2.main(argv) == 0
+    info = json.load(open(os.path.join(out_t, "run.json")))
+    assert info["protocol"] == "tscac"
+    assert info["data_sets"][0]["reward_scale"] == [1.0, 1.0, 1.0, 1.0, 1.0, -1.0, 1.0]
+    table = json.load(open(os.path.join(out_t, "table.json")))
+    assert list(table["methods"]) == list(METHODS)
+    for row in table["methods"].values():
+        assert all(math.isfinite(v) for v in row["truth"].values())

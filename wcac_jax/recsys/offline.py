@@ -69,7 +69,7 @@ from wcac_jax import actor as actor_lib
 from wcac_jax import critic as critic_lib
 from wcac_jax import scalarize
 from wcac_jax.networks import NetParams, Network, make_network
-from wcac_jax.recsys.data import Protocol
+from wcac_jax.recsys.data import Protocol, for_test_rows
 
 M = 7
 HATE = 5
@@ -164,7 +164,8 @@ class Objectives:
     """How rewards become maximised, comparable objectives.
 
     Attributes:
-      scale: `[m]` multiplies the raw reward (`(1 - gamma) / mean`, negated for hate).
+      scale: `[m]` multiplies the raw reward (`(1 - gamma) / mean`, negated for hate;
+        under `protocol="tscac"` the raw rewards: `1`, negated for hate).
       j_ub: `[m]` utopia point in the scaled units.
     """
 
@@ -176,14 +177,17 @@ def objectives(data: Protocol, gamma: float, ub_margin: float) -> Objectives:
     """Reward scales and the utopia point from the training rows (host side, numpy).
 
     `J_ub_i = J_b,i + ub_margin |J_b,i|` where `J_b,i` is the mean over training rows of
-    the logged discounted return-to-go of the scaled reward `i`.
+    the logged discounted return-to-go of the scaled reward `i`. Under `protocol="tscac"`
+    the rewards stay raw (only hate is negated), as that pipeline trains on them.
     """
     reward = np.asarray(data.reward[: data.n_train], np.float64)
     done = np.asarray(data.done[: data.n_train], np.float64)
-    mean = np.maximum(reward.mean(axis=0), 1e-12)
     sign = np.ones(M)
     sign[HATE] = -1.0
-    scale = sign * (1.0 - gamma) / mean
+    if data.protocol == "tscac":
+        scale = sign
+    else:
+        scale = sign * (1.0 - gamma) / np.maximum(reward.mean(axis=0), 1e-12)
     scaled = reward * scale
     ret = np.zeros_like(scaled)
     acc = np.zeros(M)
@@ -525,7 +529,8 @@ def make_train(method: str, cfg: OfflineConfig, data: Protocol):
 
 def make_train_bc(cfg: OfflineConfig, data: Protocol):
     """Behavior-Clone: a 3-layer ReLU softmax classifier of the logged candidate index,
-    trained by cross-entropy with Adam on the training rows.
+    trained by cross-entropy with Adam on the rows `data.behaviour_rows` (the training
+    rows; the test rows, with their split's normalisation, under `protocol="tscac"`).
 
     Returns:
       `(train, act)`: `train(key, data) -> (params, losses [steps])`;
@@ -541,12 +546,15 @@ def make_train_bc(cfg: OfflineConfig, data: Protocol):
     def train(key, data: Protocol):
         key_init, key_steps = jax.random.split(key)
         params = net.init(key_init)
+        start, stop = data.behaviour_rows
+        # states of test rows use the test split's normalisation (tscac's own per split)
+        src = for_test_rows(data) if start >= data.n_train else data
 
         def step(carry, key):
             trainable, opt_state = carry
-            rows = jax.random.randint(key, (cfg.batch_size,), 0, data.n_train)
+            rows = jax.random.randint(key, (cfg.batch_size,), start, stop)
             loss, grad = jax.value_and_grad(loss_fn)(
-                trainable, params.fixed, net_input(data, rows), data.action[rows]
+                trainable, params.fixed, net_input(src, rows), data.action[rows]
             )
             upd, opt_state = opt.update(grad, opt_state)
             return (optax.apply_updates(trainable, upd), opt_state), loss
