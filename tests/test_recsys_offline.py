@@ -122,6 +122,22 @@ def test_objectives_hand_computed():
     np.testing.assert_allclose(obj.j_ub[5], j_hate * 0.8, rtol=1e-6)
 
 
+def test_objectives_keep_raw_rewards_under_tscac():
+    """The same rows under `protocol="tscac"`: scale 1 (hate -1), returns of raw rewards."""
+    reward = np.zeros((4, 7), np.float32)
+    reward[:, 0] = [1.0, 0.0, 1.0, 0.0]
+    reward[:, 5] = [0.0, 1.0, 0.0, 0.0]
+    data = tiny_protocol(n=4, users=2, reward=reward).replace(
+        user_index=jnp.array([0, 0, 1, 1]), done=jnp.array([0.0, 1.0, 0.0, 1.0])
+    )
+    data = data.replace(n_train=3, protocol="tscac")
+    obj = offline.objectives(data, gamma=0.5, ub_margin=0.2)
+    np.testing.assert_allclose(obj.scale, [1, 1, 1, 1, 1, -1, 1])
+    # click returns-to-go: 1, 0, 1; hate: -0.5, -1, 0
+    np.testing.assert_allclose(obj.j_ub[0], 2 / 3 * 1.2, rtol=1e-6)
+    np.testing.assert_allclose(obj.j_ub[5], -0.5 * 0.8, rtol=1e-6)
+
+
 def _adam_first_step(grad, lr):
     """Adam's first update is `-lr * g / (|g| + eps)` elementwise."""
     return jax.tree.map(lambda g: -lr * g / (jnp.abs(g) + 1e-8), grad)
@@ -247,6 +263,20 @@ def test_behavior_clone_learns_a_deterministic_logging_policy():
     params, losses = jax.jit(train)(jax.random.key(0), data)
     pred = np.asarray(act(params, offline.net_input(data, jnp.arange(n))))
     assert (pred == action).mean() > 0.95 and losses[-1] < losses[0]
+
+
+@pytest.mark.parametrize("protocol, fitted", [("default", 1), ("tscac", 2)])
+def test_behavior_clone_fits_the_protocols_behaviour_rows(protocol, fitted):
+    """Training rows always log candidate 1, test rows candidate 2: Behavior-Clone
+    recovers the one its protocol fits on (`Protocol.behaviour_rows`)."""
+    n = 200
+    action = np.where(np.arange(n) < n // 2, 1, 2)
+    data = tiny_protocol(n=n, action=action).replace(n_train=n // 2, protocol=protocol)
+    cfg = offline.OfflineConfig(steps=100, batch_size=32, width=16)
+    train, act = offline.make_train_bc(cfg, data)
+    params, _ = jax.jit(train)(jax.random.key(0), data)
+    pred = np.asarray(act(params, offline.net_input(data, jnp.arange(n))))
+    assert (pred == fitted).all()
 
 
 def test_check_finite_names_the_first_non_finite_step():
