@@ -479,6 +479,25 @@ def test_walker2d_film_rejects_bad_input(tmp_path, args, out, named):
     _assert_refused(proc.returncode, proc.stderr, named, out)
 
 
+def test_walker2d_film_refuses_existing_films(tmp_path):
+    """Films already in --out stay byte for byte without --overwrite: refused before the
+    run is even read (no sweep in `nowhere`), exit 2, one line naming the file."""
+    (tmp_path / "film.json").write_text("mine")
+    (tmp_path / "notes.txt").write_text("other")
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+    proc = subprocess.run(
+        [sys.executable, os.path.join(ROOT, "experiments", "walker2d_film.py")]
+        + ["--run", "nowhere", "--out", str(tmp_path)],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert proc.returncode == 2
+    path = str(tmp_path / "film.json")
+    assert proc.stderr.splitlines() == [f"error: {path!r} exists (--overwrite replaces it)"]
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before
+
+
 def test_ablation_grid_is_the_papers():
     sizes = walker2d_ablation.grid([1, 2, 4], [64, 128, 256], 256, 2)
     assert sizes == [(1, 256), (2, 256), (4, 256), (2, 64), (2, 128)]
