@@ -240,3 +240,30 @@ def test_committed_experiment_summary_is_what_its_fronts_give():
         top = json.load(f)
     assert top == fronts["conditioned"][0] and len(top["prefs"]) >= 33
     assert top["env_steps_total"] <= 3_030_000 and top["conditioned"]["networks"] == 1
+
+
+@pytest.mark.parametrize(
+    ("flags", "expected"),
+    [
+        ([], "--out {out!r} is not empty (--resume adds to it, --overwrite replaces it)"),
+        (
+            ["--resume", "--overwrite"],
+            "--out {out!r}: --resume adds to it and --overwrite replaces it: give one",
+        ),
+    ],
+)
+def test_experiment_refuses_a_non_empty_out(tmp_path, capsys, flags, expected):
+    """Refused before any training: exit 2, one line naming --out, every file unchanged."""
+    exp = _experiment()
+    out = tmp_path / "out"
+    (out / "conditioned" / "seed0").mkdir(parents=True)
+    (out / "conditioned" / "seed0" / "front.json").write_text("{}")
+    (out / "summary.json").write_text("mine")
+    before = {str(p): p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    with pytest.raises(SystemExit) as exc:
+        exp.main([*flags, "--out", str(out), "--work", str(tmp_path / "work")])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert err.splitlines() == ["error: " + expected.format(out=str(out))]
+    assert {str(p): p.read_bytes() for p in out.rglob("*") if p.is_file()} == before
+    assert not (tmp_path / "work").exists()
