@@ -96,6 +96,29 @@ def test_bench_env_quick_writes_every_field(tmp_path):
     assert row["physics"] == "brax" and row["batch"] == 2 and row["env_steps_per_s"] > 0
 
 
+@pytest.mark.parametrize(
+    "script", ["bench_env", "bench_throughput", "bench_processes", "reference_ppo"]
+)
+def test_benchmarks_refuse_an_existing_out(tmp_path, capsys, script):
+    """An earlier result file stays byte for byte without --overwrite: exit 2 and one line
+    naming it, before anything is measured."""
+    import importlib
+
+    out = tmp_path / "result.json"
+    out.write_text('{"mine": 1}')
+    main = importlib.import_module(script).main
+    try:
+        status = main(["--out", str(out)])
+    except SystemExit as exc:
+        status = exc.code
+    assert status == 2
+    assert capsys.readouterr().err.splitlines() == [
+        f"error: --out {str(out)!r} exists (--overwrite replaces it)"
+    ]
+    assert out.read_text() == '{"mine": 1}'
+    assert [p.name for p in tmp_path.iterdir()] == ["result.json"]
+
+
 def test_reference_ppo_rejects_bad_input_and_names_its_missing_packages(capsys):
     with pytest.raises(SystemExit) as exc:
         reference_ppo.main(["--steps", "0"])
@@ -652,3 +675,4 @@ def test_walker2d_film_of_a_padded_two_device_run_with_a_choice(tmp_path):
     film = json.loads((out / "film.json").read_text())
     assert [p["pref"] for p in film["policies"]] == [row["pref"] for row in front["prefs"]]
     assert len([line for line in proc.stdout.splitlines() if line.startswith("p = ")]) == 3
+
