@@ -676,3 +676,32 @@ def test_walker2d_film_of_a_padded_two_device_run_with_a_choice(tmp_path):
     assert [p["pref"] for p in film["policies"]] == [row["pref"] for row in front["prefs"]]
     assert len([line for line in proc.stdout.splitlines() if line.startswith("p = ")]) == 3
 
+
+def test_kuairand_headroom_refuses_a_non_empty_out(tmp_path, capsys):
+    """Refused before any data is read (there is none): exit 2, one line, bytes kept."""
+    import kuairand_headroom
+
+    out = tmp_path / "headroom"
+    out.mkdir()
+    (out / "headroom.json").write_text('{"old": 1}\n')
+    assert kuairand_headroom.main(["--data", str(tmp_path / "none"), "--out", str(out)]) == 2
+    assert capsys.readouterr().err.splitlines() == [
+        f"error: --out {str(out)!r} is not empty (--overwrite replaces it)"
+    ]
+    assert [p.name for p in out.iterdir()] == ["headroom.json"]
+    assert (out / "headroom.json").read_text() == '{"old": 1}\n'
+
+
+def test_kuairand_headroom_overwrite_replaces_out_whole(tmp_path, monkeypatch):
+    import kuairand_headroom
+
+    out = tmp_path / "headroom"
+    out.mkdir()
+    (out / "notes.txt").write_text("old")
+    per = {"sigma": {"5.0": {"bc": 1.0, "oracle": 3.0, "gap": 2.0}}, "logged": 0.5}
+    monkeypatch.setattr(kuairand_headroom, "headroom", lambda *a: per)
+    argv = ["--data", str(tmp_path / "seed0"), "--out", str(out), "--overwrite"]
+    assert kuairand_headroom.main(argv) == 0
+    assert [p.name for p in out.iterdir()] == ["headroom.json"]
+    assert json.loads((out / "headroom.json").read_text())["sigma"]["5.0"]["gap"] == 2.0
+    assert os.listdir(tmp_path) == ["headroom"]  # no temporary directory left
