@@ -146,9 +146,9 @@ def run_arm(arm: str, seed: int, work: str, out: str) -> dict:
 
 
 def write_atomic(path: str, data: bytes) -> None:
-    from wcac_jax.outputs import write_atomic
+    from wcac_jax import outputs  # imported late, as every wcac_jax module here
 
-    write_atomic(path, data)
+    outputs.write_atomic(path, data)
 
 
 def copy_atomic(src: str, directory: str) -> None:
@@ -282,6 +282,8 @@ def main(argv=None) -> None:
         help="replace a non-empty --out (written beside it, renamed into place when finished)",
     )
     args = p.parse_args(argv)
+    if args.summarize_only and args.overwrite:  # it would replace --out by an empty summary
+        fail(f"--out {args.out!r}: --summarize-only reads it and --overwrite replaces it")
     out = make_out(args.out, args.resume or args.summarize_only, args.overwrite)
     if not args.summarize_only:
         for seed in args.seeds:
