@@ -19,6 +19,7 @@ import json
 import os
 import platform
 import resource
+import sys
 import time
 
 import jax
@@ -26,6 +27,7 @@ import numpy as np
 
 from wcac_jax import envs
 from wcac_jax.envs.wrappers import EpisodeWrapper
+from wcac_jax.outputs import json_bytes, write_atomic
 
 
 def bench_stepping(env, batch: int, steps: int, seed: int = 0) -> dict:
@@ -132,6 +134,14 @@ def qpos_drift(a: str, b: str, steps: int = 100, seed: int = 0):
     }
 
 
+def refuse_existing(path: str, overwrite: bool) -> None:
+    """Exit 2 with one line if the result file `path` exists and `overwrite` is not given:
+    checked before any measurement, so an earlier result is never lost by accident."""
+    if os.path.lexists(path) and not overwrite:
+        print(f"error: --out {path!r} exists (--overwrite replaces it)", file=sys.stderr)
+        raise SystemExit(2)
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--batches", type=int, nargs="*", default=[1, 16, 144, 1024])
@@ -154,8 +164,10 @@ def main(argv=None):
     parser.add_argument(
         "--out", default=None, help="JSON file (default: runs/bench_env-<time>.json)"
     )
+    parser.add_argument("--overwrite", action="store_true", help="replace an existing --out")
     args = parser.parse_args(argv)
     out = args.out or os.path.join("runs", time.strftime("bench_env-%Y%m%d-%H%M%S.json"))
+    refuse_existing(out, args.overwrite)
     unknown = [v for v in args.physics if v not in VARIANTS]
     if unknown:
         parser.error(f"unknown variant(s) {unknown}; valid: {', '.join(VARIANTS)}")
@@ -187,8 +199,7 @@ def main(argv=None):
             print("qpos drift:", json.dumps(drift), flush=True)
     result["load_average_at_end"] = os.getloadavg()
     os.makedirs(os.path.dirname(os.path.abspath(out)), exist_ok=True)
-    with open(out, "w") as f:
-        json.dump(result, f, indent=2)
+    write_atomic(out, json_bytes(result))
 
 
 if __name__ == "__main__":

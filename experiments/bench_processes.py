@@ -96,13 +96,24 @@ def measure(sweep: str, devices: int, workdir: str, timeout_s: float) -> dict:
     return {"sweep": sweep, "devices": devices, "runs": rows, "fronts_identical": identical}
 
 
+def refuse_existing(path: str, overwrite: bool) -> None:
+    """Exit 2 with one line if the result file `path` exists and `overwrite` is not given:
+    checked before any measurement, so an earlier result is never lost by accident."""
+    if os.path.lexists(path) and not overwrite:
+        print(f"error: --out {path!r} exists (--overwrite replaces it)", file=sys.stderr)
+        raise SystemExit(2)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sweep", action="append", help="sweep flags (repeatable); default: two")
     ap.add_argument("--devices", type=int, default=2, help="devices = processes (default 2)")
     ap.add_argument("--timeout", type=float, default=1800.0, help="seconds per layout")
     ap.add_argument("--out", default=None, help="JSON file to write (default: print only)")
+    ap.add_argument("--overwrite", action="store_true", help="replace an existing --out")
     args = ap.parse_args(argv)
+    if args.out:
+        refuse_existing(args.out, args.overwrite)
     if args.devices < 1:
         ap.error(f"--devices must be >= 1, got {args.devices}")
     results = []
@@ -122,9 +133,10 @@ def main(argv=None) -> int:
         "results": results,
     }
     if args.out:
+        from wcac_jax.outputs import json_bytes, write_atomic
+
         os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
-        with open(args.out, "w") as f:
-            json.dump(record, f, indent=2)
+        write_atomic(args.out, json_bytes(record))
     return 0
 
 

@@ -44,6 +44,7 @@ import jax.numpy as jnp
 from wcac_jax import envs, pareto
 from wcac_jax.algos import PaperConfig, PracticalConfig, make_trainer
 from wcac_jax.envs.wrappers import EpisodeWrapper
+from wcac_jax.outputs import json_bytes, write_atomic
 from wcac_jax.utopia import PREF_AXIS
 
 _LAST_CORES = {}
@@ -134,6 +135,14 @@ def bench_sequential(trainer, config, prefs, iters: int) -> dict:
     }
 
 
+def refuse_existing(path: str, overwrite: bool) -> None:
+    """Exit 2 with one line if the result file `path` exists and `overwrite` is not given:
+    checked before any measurement, so an earlier result is never lost by accident."""
+    if os.path.lexists(path) and not overwrite:
+        print(f"error: --out {path!r} exists (--overwrite replaces it)", file=sys.stderr)
+        raise SystemExit(2)
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--env", default="walker2d")
@@ -176,8 +185,10 @@ def main(argv=None):
     parser.add_argument(
         "--out", default=None, help="JSON file (default: runs/bench_throughput-<time>.json)"
     )
+    parser.add_argument("--overwrite", action="store_true", help="replace an existing --out")
     args = parser.parse_args(argv)
     out = args.out or os.path.join("runs", time.strftime("bench_throughput-%Y%m%d-%H%M%S.json"))
+    refuse_existing(out, args.overwrite)
     if args.grid:
         return run_grid(args, out)
     if args.devices is not None:
@@ -268,8 +279,7 @@ def main(argv=None):
         f"peak device memory {fmt(result['peak_device_memory_gib'])} GiB"
     )
     os.makedirs(os.path.dirname(os.path.abspath(out)), exist_ok=True)
-    with open(out, "w") as f:
-        json.dump(result, f, indent=2)
+    write_atomic(out, json_bytes(result))
     return result
 
 
@@ -299,6 +309,7 @@ def run_grid(args, out: str) -> dict:
                     *("--rollout-steps", str(args.rollout_steps)),
                     *("--width", str(args.width or PaperConfig.width), "--depth", str(args.depth)),
                     *("--network", args.network, "--skip", "sequential", "--out", row_out),
+                    "--overwrite",  # the row file of an earlier, interrupted grid
                 ]
                 if args.devices is not None:
                     cmd += ["--devices", str(args.devices)]
@@ -312,8 +323,8 @@ def run_grid(args, out: str) -> dict:
                 row["load_average_after"] = os.getloadavg()
                 rows.append(row)
                 result = {"machine": f"{platform.machine()}, {os.cpu_count()} CPUs", "rows": rows}
-                with open(out, "w") as f:  # after every row: a stopped grid keeps its rows
-                    json.dump(result, f, indent=2)
+                # after every row: a stopped grid keeps its rows
+                write_atomic(out, json_bytes(result))
     print(f"wrote {out}")
     return result
 

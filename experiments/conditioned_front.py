@@ -22,6 +22,10 @@ Writes to `--out`: each run's `front.json`, `front.csv`, `front.png`, `config.js
 under `<arm>/seedS/`, seed 0's conditioned front as `front.json` (and `front.png`) at the
 top, `summary.json` and `summary.md`. Runs one training at a time; the machine's load
 (`os.getloadavg`) is recorded with each.
+
+A non-empty `--out` is refused unless `--resume` (add seeds to it, keeping the runs it
+records) or `--overwrite` (the run writes beside it and replaces it when finished) is
+given; every file is written atomically.
 """
 
 from __future__ import annotations
@@ -30,6 +34,7 @@ import argparse
 import json
 import os
 import shutil
+import sys
 import time
 
 import numpy as np
@@ -129,16 +134,27 @@ def run_arm(arm: str, seed: int, work: str, out: str) -> dict:
     os.makedirs(dest, exist_ok=True)
     for name in KEPT:
         if os.path.isfile(os.path.join(run_dir, name)):
-            shutil.copy(os.path.join(run_dir, name), dest)
+            copy_atomic(os.path.join(run_dir, name), dest)
     machine = {
         "load_before": load_before,
         "load_after": os.getloadavg(),
         "process_s": seconds,
         "cpus": os.cpu_count(),
     }
-    with open(os.path.join(dest, "machine.json"), "w") as f:
-        json.dump(machine, f, indent=1)
+    write_atomic(recorded, (json.dumps(machine, indent=1)).encode())
     return machine
+
+
+def write_atomic(path: str, data: bytes) -> None:
+    from wcac_jax import outputs  # imported late, as every wcac_jax module here
+
+    outputs.write_atomic(path, data)
+
+
+def copy_atomic(src: str, directory: str) -> None:
+    """`src` copied into `directory` under its own name, atomically."""
+    with open(src, "rb") as f:
+        write_atomic(os.path.join(directory, os.path.basename(src)), f.read())
 
 
 def cost_growth(run_dir: str, counts) -> list[dict]:
@@ -204,10 +220,8 @@ def summarize(out: str, reuse_9x1m: str | None, cost: list | None) -> dict:
     }
     if cost is not None:
         summary["cost_growth"] = cost
-    with open(os.path.join(out, "summary.json"), "w") as f:
-        json.dump(summary, f, indent=1)
-    with open(os.path.join(out, "summary.md"), "w") as f:
-        f.write(markdown(summary))
+    write_atomic(os.path.join(out, "summary.json"), json.dumps(summary, indent=1).encode())
+    write_atomic(os.path.join(out, "summary.md"), markdown(summary).encode())
     return summary
 
 
@@ -258,22 +272,66 @@ def main(argv=None) -> None:
         help="the committed 9 x 1M fronts of today's default (seedS/front.json)",
     )
     p.add_argument("--cost-prefs", type=int, nargs="*", default=[9, 33, 101])
-    p.add_argument("--summarize-only", action="store_true")
+    p.add_argument("--summarize-only", action="store_true", help="resummarize --out only")
+    p.add_argument(
+        "--resume", action="store_true", help="add to a non-empty --out, keeping its runs"
+    )
+    p.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace a non-empty --out (written beside it, renamed into place when finished)",
+    )
     args = p.parse_args(argv)
-    os.makedirs(args.out, exist_ok=True)
+    if args.summarize_only and args.overwrite:  # it would replace --out by an empty summary
+        fail(f"--out {args.out!r}: --summarize-only reads it and --overwrite replaces it")
+    out = make_out(args.out, args.resume or args.summarize_only, args.overwrite)
     if not args.summarize_only:
         for seed in args.seeds:
             for arm in args.arms:
-                print(f"[{arm} seed {seed}] {run_arm(arm, seed, args.work, args.out)}", flush=True)
-    seed0 = os.path.join(args.out, "conditioned", "seed0")
+                print(f"[{arm} seed {seed}] {run_arm(arm, seed, args.work, out)}", flush=True)
+    seed0 = os.path.join(out, "conditioned", "seed0")
     for name in ("front.json", "front.png"):
         if os.path.isfile(os.path.join(seed0, name)):
-            shutil.copy(os.path.join(seed0, name), args.out)
+            copy_atomic(os.path.join(seed0, name), out)
     cost = None
     work0 = os.path.join(args.work, "conditioned", "seed0")
     if args.cost_prefs and os.path.isdir(work0):
         cost = cost_growth(work0, args.cost_prefs)
-    print(markdown(summarize(args.out, args.reuse_9x1m, cost)))
+    summary = summarize(out, args.reuse_9x1m, cost)
+    if out != args.out:
+        from wcac_jax.outputs import replace_dir
+
+        replace_dir(out, args.out)
+    print(markdown(summary))
+
+
+def fail(message: str) -> None:
+    print(f"error: {message}", file=sys.stderr)
+    raise SystemExit(2)
+
+
+def make_out(out: str, resume: bool, overwrite: bool) -> str:
+    """The directory the run writes to: `out` (created; a non-empty one only with
+    `resume`), or with `overwrite` a fresh one beside it that replaces it when finished.
+    Refuses (exit 2, one line) before any training."""
+    from wcac_jax.outputs import staging_dir, unwritable_dir
+
+    if resume and overwrite:
+        fail(f"--out {out!r}: --resume adds to it and --overwrite replaces it: give one")
+    if os.path.exists(out) and not os.path.isdir(out):
+        fail(f"--out {out!r} exists and is not a directory")
+    if overwrite:
+        work = staging_dir(out)
+        shutil.rmtree(work, ignore_errors=True)  # an earlier, interrupted try's
+        problem = unwritable_dir(work)
+        if problem:
+            fail(f"--overwrite: --out {out!r} can't be replaced ({problem})")
+        os.makedirs(work)
+        return work
+    if os.path.isdir(out) and os.listdir(out) and not resume:
+        fail(f"--out {out!r} is not empty (--resume adds to it, --overwrite replaces it)")
+    os.makedirs(out, exist_ok=True)
+    return out
 
 
 if __name__ == "__main__":

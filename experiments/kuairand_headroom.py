@@ -9,13 +9,15 @@ then, for each `sigma`, the true value of the unified objective (`kuairand_table
 Behavior-Clone's Gaussian, of the oracle's (the best mean per test row for that sigma),
 and of the logged actions, each test row valued in its logged session context. Writes
 `OUT/headroom.json`: per sigma, the means over data sets and the gap
-`oracle - bc` in units of the unified objective.
+`oracle - bc` in units of the unified objective. A non-empty `OUT` is refused unless
+`--overwrite` is given; then it is replaced whole once the new results are written.
 """
 
 from __future__ import annotations
 
 import json
 import os
+import shutil
 import sys
 from dataclasses import replace
 
@@ -24,6 +26,7 @@ import jax.numpy as jnp
 import kuairand_table2 as table2
 import numpy as np
 
+from wcac_jax.outputs import out_refusal, replace_dir, staging_dir
 from wcac_jax.recsys import ncis as ncis_lib
 from wcac_jax.recsys import offline
 from wcac_jax.recsys.cli import ArgumentParser
@@ -63,7 +66,12 @@ def main(argv=None) -> int:
     parser.add_argument("--steps", type=int, default=table2.DEFAULT.steps)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--protocol", choices=PROTOCOLS, default="default")
+    parser.add_argument("--overwrite", action="store_true", help="replace a non-empty --out whole")
     args = parser.parse_args(argv)
+    refusal = out_refusal(args.out, args.overwrite)  # before any work
+    if refusal:
+        print(f"error: {refusal}", file=sys.stderr)
+        return 2
     cfg = replace(table2.DEFAULT, steps=args.steps)
     per = [headroom(d, cfg, args.seed, args.protocol) for d in args.data]
     result = {
@@ -77,9 +85,13 @@ def main(argv=None) -> int:
         "logged": float(np.mean([p["logged"] for p in per])),
         "per_data_set": per,
     }
-    os.makedirs(args.out, exist_ok=True)
-    with open(os.path.join(args.out, "headroom.json"), "w") as f:
+    # written beside --out, then renamed over it: an interrupted run leaves --out whole
+    work = staging_dir(args.out)
+    shutil.rmtree(work, ignore_errors=True)
+    os.makedirs(work)
+    with open(os.path.join(work, "headroom.json"), "w") as f:
         f.write(json.dumps(result, indent=2) + "\n")
+    replace_dir(work, args.out)
     print(json.dumps(result["sigma"], indent=1), "logged", result["logged"])
     return 0
 

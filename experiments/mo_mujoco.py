@@ -27,6 +27,12 @@ Three commands, each writing under `--results` (default `experiments/results/mo_
   speed against the reference's, wall times, and the published numbers of
   `<results>/published.json` beside them (each with its source and how its definitions
   and budget differ). No number is typed here: all are read from those files.
+
+Nothing is replaced by accident: `fronts` refuses a non-empty `<env>/<S>/` unless
+`--resume` (the sweep continues it; a finished one is read, not rerun) or `--overwrite`
+(the sweep replaces it whole when finished), and `ppo` and `table` refuse their existing
+files unless `--overwrite`; each refusal before any work, exit 2 with one line naming the
+path. Every file is written atomically.
 """
 
 from __future__ import annotations
@@ -92,20 +98,45 @@ PGMORL_MAPPING = {
 # ---------------------------------------------------------------------- fronts
 
 
-def sweep_command(env: str, scalarization: str, out: str, seed: int, smoke: bool) -> list[str]:
-    """The sweep command of one front (the task's default configuration and budget)."""
+def sweep_command(
+    env: str, scalarization: str, out: str, seed: int, smoke: bool, flags=()
+) -> list[str]:
+    """The sweep command of one front (the task's default configuration and budget);
+    `flags`: the sweep's `--resume` or `--overwrite`."""
     cmd = [sys.executable, "-m", "wcac_jax.sweep", "--env", env]
     cmd += ["--scalarization", scalarization, "--seed", str(seed), "--out", out]
     if smoke:
         cmd += ["--n-prefs", "3", "--steps-per-pref", "20480", "--eval-episodes", "1"]
-    return cmd
+    return cmd + list(flags)
 
 
-def run_fronts(envs, results: str, seed: int, smoke: bool) -> int:
+def refuse(message: str) -> None:
+    print(f"error: {message}", file=sys.stderr)
+    raise SystemExit(2)
+
+
+def front_flags(out: str, resume: bool, overwrite: bool) -> list[str]:
+    """The sweep flags for the front in `out`: none for a new one; for a non-empty one,
+    `--resume` or `--overwrite` as asked, or a refusal."""
+    if not (os.path.isdir(out) and os.listdir(out)):
+        return []
+    if overwrite:
+        return ["--overwrite"]
+    if resume:
+        return ["--resume"]
+    refuse(f"{out!r} is not empty (--resume continues it, --overwrite replaces it)")
+
+
+def run_fronts(envs, results: str, seed: int, smoke: bool, resume=False, overwrite=False) -> int:
+    if resume and overwrite:
+        refuse(f"--results {results!r}: --resume continues and --overwrite replaces: give one")
+    outs = {(e, s): os.path.join(results, e, s) for e in envs for s in SCALARIZATIONS}
+    # every front checked before the first is trained
+    flags = {k: front_flags(out, resume, overwrite) for k, out in outs.items()}
     for env in envs:
         for scal in SCALARIZATIONS:
-            out = os.path.join(results, env, scal)
-            cmd = sweep_command(env, scal, out, seed, smoke)
+            out = outs[env, scal]
+            cmd = sweep_command(env, scal, out, seed, smoke, flags[env, scal])
             print("+", " ".join(cmd[1:]), flush=True)
             code = subprocess.run(cmd, cwd=ROOT, env={**os.environ, "PYTHONPATH": ROOT}).returncode
             if code != 0:
@@ -119,6 +150,8 @@ def run_fronts(envs, results: str, seed: int, smoke: bool) -> int:
 
 def run_ppo(env: str, out: str, steps: int, seed: int, eval_episodes: int) -> int:
     """One sbx PPO run on `env`'s single-objective v5 task; writes `out` (JSON)."""
+    from reference_ppo import write_atomic  # as self-contained as this command
+
     try:
         import gymnasium as gym
         import numpy as np
@@ -177,8 +210,7 @@ def run_ppo(env: str, out: str, steps: int, seed: int, eval_episodes: int) -> in
         "when": time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime()),
     }
     os.makedirs(os.path.dirname(os.path.abspath(out)), exist_ok=True)
-    with open(out, "w") as f:
-        json.dump(result, f, indent=1)
+    write_atomic(out, json.dumps(result, indent=1).encode())
     print(json.dumps(result, indent=1))
     return 0
 
@@ -322,11 +354,11 @@ def write_table(summary: dict, results: str) -> None:
             )
     else:
         lines.append("None entered yet (`published.json`, each with its source).")
+    from wcac_jax.outputs import write_atomic
+
     os.makedirs(results, exist_ok=True)
-    with open(os.path.join(results, "table.md"), "w") as f:
-        f.write("\n".join(lines) + "\n")
-    with open(os.path.join(results, "table.json"), "w") as f:
-        json.dump(summary, f, indent=1)
+    write_atomic(os.path.join(results, "table.md"), ("\n".join(lines) + "\n").encode())
+    write_atomic(os.path.join(results, "table.json"), json.dumps(summary, indent=1).encode())
 
 
 # ---------------------------------------------------------------------- command line
@@ -344,19 +376,31 @@ def main(argv=None) -> int:
         "--steps", type=int, default=1_000_000, help="ppo: env steps (a preference's budget)"
     )
     parser.add_argument("--eval-episodes", type=int, default=8, help="ppo: evaluation episodes")
+    parser.add_argument(
+        "--resume", action="store_true", help="fronts: continue the fronts already there"
+    )
+    parser.add_argument(
+        "--overwrite", action="store_true", help="replace the results already there"
+    )
     args = parser.parse_args(argv)
     if args.command == "fronts":
         envs = [e for e in args.envs.split(",") if e]
         unknown = [e for e in envs if e not in SINGLE_OBJECTIVE]
         if unknown:
             parser.error(f"unknown task(s) {unknown}; valid: {', '.join(SINGLE_OBJECTIVE)}")
-        return run_fronts(envs, args.results, args.seed, args.smoke)
+        return run_fronts(envs, args.results, args.seed, args.smoke, args.resume, args.overwrite)
     if args.command == "ppo":
         if args.env not in SINGLE_OBJECTIVE:
             parser.error(f"ppo needs --env, one of {', '.join(SINGLE_OBJECTIVE)}")
         steps, episodes = (4096, 1) if args.smoke else (args.steps, args.eval_episodes)
         out = os.path.join(args.results, args.env, "reference_ppo.json")
+        if os.path.lexists(out) and not args.overwrite:
+            refuse(f"{out!r} exists (--overwrite replaces it)")
         return run_ppo(args.env, out, steps, args.seed, episodes)
+    for name in ("table.md", "table.json"):
+        path = os.path.join(args.results, name)
+        if os.path.lexists(path) and not args.overwrite:
+            refuse(f"{path!r} exists (--overwrite replaces it)")
     sys.path.insert(0, ROOT)
     summary = summarize(args.results)
     write_table(summary, args.results)

@@ -27,6 +27,7 @@ import os
 import platform
 import resource
 import sys
+import tempfile
 import time
 
 
@@ -36,7 +37,11 @@ def main(argv=None) -> int:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--eval-episodes", type=int, default=8)
     parser.add_argument("--out", default=None, help="JSON file (default: print only)")
+    parser.add_argument("--overwrite", action="store_true", help="replace an existing --out")
     args = parser.parse_args(argv)
+    if args.out and os.path.lexists(args.out) and not args.overwrite:
+        print(f"error: --out {args.out!r} exists (--overwrite replaces it)", file=sys.stderr)
+        return 2
     if args.steps <= 0 or args.eval_episodes <= 0:
         parser.error(
             f"--steps and --eval-episodes must be > 0, got {args.steps}, {args.eval_episodes}"
@@ -107,9 +112,25 @@ def main(argv=None) -> int:
     print(json.dumps(result, indent=1))
     if args.out:
         os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
-        with open(args.out, "w") as f:
-            json.dump(result, f, indent=1)
+        write_atomic(args.out, (json.dumps(result, indent=1)).encode())
     return 0
+
+
+def write_atomic(path: str, data: bytes) -> None:
+    """`data` written to a temporary file beside `path`, then renamed over it (as
+    `wcac_jax.outputs.write_atomic`, which this script's own environment lacks)."""
+    fd, tmp = tempfile.mkstemp(dir=os.path.dirname(os.path.abspath(path)), prefix=".tmp-")
+    umask = os.umask(0)
+    os.umask(umask)
+    os.fchmod(fd, 0o666 & ~umask)  # as an ordinary open() would create it
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
 
 
 if __name__ == "__main__":

@@ -45,6 +45,8 @@ from wcac_jax import plot, render  # noqa: E402
 from wcac_jax.outputs import json_bytes, unwritable_dir, write_atomic  # noqa: E402
 from wcac_jax.sweep import SweepError, load_sweep  # noqa: E402
 
+FILES = ("film.gif", "film.png", "film.json")
+
 
 def label(pref, speed: float) -> str:
     return "p = [" + ", ".join(f"{x:.3g}" for x in pref) + f"]  {speed:+.2f} m/s"
@@ -107,6 +109,7 @@ def main(argv=None) -> int:
     parser.add_argument("--every", type=int, default=4, help="one GIF frame per N steps")
     parser.add_argument("--columns", type=int, default=6, help="moments in film.png")
     parser.add_argument("--size", type=int, default=160, help="panel size in pixels")
+    parser.add_argument("--overwrite", action="store_true", help="replace films already in --out")
     args = parser.parse_args(argv)
     for flag in ("steps", "every", "columns", "size"):
         if getattr(args, flag) < 1:
@@ -115,6 +118,10 @@ def main(argv=None) -> int:
     problem = unwritable_dir(out)  # checked before any work; created once frames exist
     if problem:
         common.fail(f"--out {out!r} can't be written ({problem})")
+    for name in FILES:  # refused before any work: another run's films stay as they are
+        path = os.path.join(out, name)
+        if os.path.lexists(path) and not args.overwrite:
+            common.fail(f"{path!r} exists (--overwrite replaces it)")
     try:
         run = load_sweep(args.run)
     except SweepError as err:

@@ -240,3 +240,60 @@ def test_committed_experiment_summary_is_what_its_fronts_give():
         top = json.load(f)
     assert top == fronts["conditioned"][0] and len(top["prefs"]) >= 33
     assert top["env_steps_total"] <= 3_030_000 and top["conditioned"]["networks"] == 1
+
+
+@pytest.mark.parametrize(
+    ("flags", "expected"),
+    [
+        ([], "--out {out!r} is not empty (--resume adds to it, --overwrite replaces it)"),
+        (
+            ["--resume", "--overwrite"],
+            "--out {out!r}: --resume adds to it and --overwrite replaces it: give one",
+        ),
+        (
+            ["--summarize-only", "--overwrite"],
+            "--out {out!r}: --summarize-only reads it and --overwrite replaces it",
+        ),
+    ],
+)
+def test_experiment_refuses_a_non_empty_out(tmp_path, capsys, flags, expected):
+    """Refused before any training: exit 2, one line naming --out, every file unchanged."""
+    exp = _experiment()
+    out = tmp_path / "out"
+    (out / "conditioned" / "seed0").mkdir(parents=True)
+    (out / "conditioned" / "seed0" / "front.json").write_text("{}")
+    (out / "summary.json").write_text("mine")
+    before = {str(p): p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    with pytest.raises(SystemExit) as exc:
+        exp.main([*flags, "--out", str(out), "--work", str(tmp_path / "work")])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert err.splitlines() == ["error: " + expected.format(out=str(out))]
+    assert {str(p): p.read_bytes() for p in out.rglob("*") if p.is_file()} == before
+    assert not (tmp_path / "work").exists()
+
+
+def test_experiment_resume_keeps_the_recorded_runs(tmp_path, monkeypatch):
+    """--resume on a non-empty --out reads a run it records (no training) and writes the
+    summary beside it, leaving the run's files as they were."""
+    exp = _experiment()
+    committed = os.path.join(ROOT, "experiments", "results", "conditioned_walker2d")
+    out, work = tmp_path / "out", tmp_path / "work"
+    (out / "conditioned" / "seed0").mkdir(parents=True)
+    (work / "conditioned" / "seed0").mkdir(parents=True)
+    front = open(os.path.join(committed, "conditioned", "seed0", "front.json"), "rb").read()
+    (out / "conditioned" / "seed0" / "front.json").write_bytes(front)
+    (out / "conditioned" / "seed0" / "machine.json").write_text('{"process_s": 1.0}')
+    (work / "conditioned" / "seed0" / "front.json").write_bytes(front)
+    before = {str(p): p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    monkeypatch.setattr("wcac_jax.cli.main", lambda *a: pytest.fail("trained"))
+    exp.main(
+        ["--resume", "--out", str(out), "--work", str(work), "--seeds", "0"]
+        + ["--arms", "conditioned", "--cost-prefs", "--reuse-9x1m", str(tmp_path / "none")]
+    )
+    after = {str(p): p.read_bytes() for p in out.rglob("*") if p.is_file()}
+    assert {k: after[k] for k in before} == before
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["runs"].keys() == {"conditioned"}
+    assert summary["runs"]["conditioned"].keys() == {"0"}
+    assert (out / "front.json").read_bytes() == front

@@ -96,6 +96,29 @@ def test_bench_env_quick_writes_every_field(tmp_path):
     assert row["physics"] == "brax" and row["batch"] == 2 and row["env_steps_per_s"] > 0
 
 
+@pytest.mark.parametrize(
+    "script", ["bench_env", "bench_throughput", "bench_processes", "reference_ppo"]
+)
+def test_benchmarks_refuse_an_existing_out(tmp_path, capsys, script):
+    """An earlier result file stays byte for byte without --overwrite: exit 2 and one line
+    naming it, before anything is measured."""
+    import importlib
+
+    out = tmp_path / "result.json"
+    out.write_text('{"mine": 1}')
+    main = importlib.import_module(script).main
+    try:
+        status = main(["--out", str(out)])
+    except SystemExit as exc:
+        status = exc.code
+    assert status == 2
+    assert capsys.readouterr().err.splitlines() == [
+        f"error: --out {str(out)!r} exists (--overwrite replaces it)"
+    ]
+    assert out.read_text() == '{"mine": 1}'
+    assert [p.name for p in tmp_path.iterdir()] == ["result.json"]
+
+
 def test_reference_ppo_rejects_bad_input_and_names_its_missing_packages(capsys):
     with pytest.raises(SystemExit) as exc:
         reference_ppo.main(["--steps", "0"])
@@ -479,6 +502,25 @@ def test_walker2d_film_rejects_bad_input(tmp_path, args, out, named):
     _assert_refused(proc.returncode, proc.stderr, named, out)
 
 
+def test_walker2d_film_refuses_existing_films(tmp_path):
+    """Films already in --out stay byte for byte without --overwrite: refused before the
+    run is even read (no sweep in `nowhere`), exit 2, one line naming the file."""
+    (tmp_path / "film.json").write_text("mine")
+    (tmp_path / "notes.txt").write_text("other")
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+    proc = subprocess.run(
+        [sys.executable, os.path.join(ROOT, "experiments", "walker2d_film.py")]
+        + ["--run", "nowhere", "--out", str(tmp_path)],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert proc.returncode == 2
+    path = str(tmp_path / "film.json")
+    assert proc.stderr.splitlines() == [f"error: {path!r} exists (--overwrite replaces it)"]
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before
+
+
 def test_ablation_grid_is_the_papers():
     sizes = walker2d_ablation.grid([1, 2, 4], [64, 128, 256], 256, 2)
     assert sizes == [(1, 256), (2, 256), (4, 256), (2, 64), (2, 128)]
@@ -633,3 +675,33 @@ def test_walker2d_film_of_a_padded_two_device_run_with_a_choice(tmp_path):
     film = json.loads((out / "film.json").read_text())
     assert [p["pref"] for p in film["policies"]] == [row["pref"] for row in front["prefs"]]
     assert len([line for line in proc.stdout.splitlines() if line.startswith("p = ")]) == 3
+
+
+def test_kuairand_headroom_refuses_a_non_empty_out(tmp_path, capsys):
+    """Refused before any data is read (there is none): exit 2, one line, bytes kept."""
+    import kuairand_headroom
+
+    out = tmp_path / "headroom"
+    out.mkdir()
+    (out / "headroom.json").write_text('{"old": 1}\n')
+    assert kuairand_headroom.main(["--data", str(tmp_path / "none"), "--out", str(out)]) == 2
+    assert capsys.readouterr().err.splitlines() == [
+        f"error: --out {str(out)!r} is not empty (--overwrite replaces it)"
+    ]
+    assert [p.name for p in out.iterdir()] == ["headroom.json"]
+    assert (out / "headroom.json").read_text() == '{"old": 1}\n'
+
+
+def test_kuairand_headroom_overwrite_replaces_out_whole(tmp_path, monkeypatch):
+    import kuairand_headroom
+
+    out = tmp_path / "headroom"
+    out.mkdir()
+    (out / "notes.txt").write_text("old")
+    per = {"sigma": {"5.0": {"bc": 1.0, "oracle": 3.0, "gap": 2.0}}, "logged": 0.5}
+    monkeypatch.setattr(kuairand_headroom, "headroom", lambda *a: per)
+    argv = ["--data", str(tmp_path / "seed0"), "--out", str(out), "--overwrite"]
+    assert kuairand_headroom.main(argv) == 0
+    assert [p.name for p in out.iterdir()] == ["headroom.json"]
+    assert json.loads((out / "headroom.json").read_text())["sigma"]["5.0"]["gap"] == 2.0
+    assert os.listdir(tmp_path) == ["headroom"]  # no temporary directory left

@@ -3,6 +3,7 @@ numbers by hand; and its commands' bad input."""
 
 import json
 import os
+import subprocess
 import sys
 
 import pytest
@@ -104,3 +105,57 @@ def test_smoke_sweep_command():
         "-m", "wcac_jax.sweep", "--env", "ant", "--scalarization", "linear", "--seed", "3",
         "--out", "/tmp/x", "--n-prefs", "3", "--steps-per-pref", "20480", "--eval-episodes", "1",
     ]  # fmt: skip
+
+
+def _files(root):
+    return {
+        os.path.relpath(os.path.join(d, n), root): open(os.path.join(d, n), "rb").read()
+        for d, _, names in os.walk(root)
+        for n in names
+    }
+
+
+@pytest.mark.parametrize(
+    ("args", "named"),
+    [
+        (["fronts", "--envs", "hopper,halfcheetah"], "halfcheetah/smooth_wc"),
+        (["ppo", "--env", "halfcheetah"], "halfcheetah/reference_ppo.json"),
+        (["table"], "table.md"),
+    ],
+)
+def test_existing_results_are_refused(results, capsys, monkeypatch, args, named):
+    """Without --resume or --overwrite: exit 2, one line naming the path, every file as
+    it was, and nothing run (a sweep started would fail the test)."""
+    with open(os.path.join(results, "table.md"), "w") as f:
+        f.write("mine")
+    before = _files(results)
+    monkeypatch.setattr(mo_mujoco.subprocess, "run", lambda *a, **k: pytest.fail("ran"))
+    with pytest.raises(SystemExit) as exc:
+        mo_mujoco.main([*args, "--results", results])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 1 and err[0].startswith("error: ")
+    assert repr(os.path.join(results, named)) in err[0]
+    assert _files(results) == before
+
+
+def test_fronts_continue_or_replace_what_is_there(results, monkeypatch):
+    """--resume and --overwrite reach the sweeps of the fronts already there; a new front
+    gets neither."""
+    ran = []
+
+    def run(cmd, **kwargs):
+        ran.append(cmd)
+        return subprocess.CompletedProcess(cmd, 0)
+
+    monkeypatch.setattr(mo_mujoco.subprocess, "run", run)
+    for flag in ("--resume", "--overwrite"):
+        ran.clear()
+        assert (
+            mo_mujoco.main(["fronts", "--envs", "halfcheetah,hopper", flag, "--results", results])
+            == 0
+        )
+        envs = [cmd[cmd.index("--env") + 1] for cmd in ran]
+        assert envs == ["halfcheetah", "halfcheetah", "hopper", "hopper"]
+        assert [cmd[-1] == flag for cmd in ran] == [True, True, False, False]
+        assert not any({"--resume", "--overwrite"} & set(cmd) for cmd in ran[2:])
