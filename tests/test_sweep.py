@@ -254,7 +254,7 @@ BAD = [
     (["--mu", "0"], "mu must be > 0, got 0.0"),
     (["--mu", "-1"], "mu must be > 0, got -1.0"),
     (["--j-ub", "1,2,3"], r"j_ub \[1.0, 2.0, 3.0\] has 3 entries"),
-    (["--env", "atari"], "'atari'; valid: concave_bandit, .*walker2d"),
+    (["--env", "atari"], "'atari'; valid: ant, .*concave_bandit, .*humanoid, .*walker2d"),
     (["--physics", "bullet"], "'physics'"),
     (["--scalarization", "max"], "'max'"),
     (["--steps-per-pref", "0"], "steps_per_pref must be a positive integer, got 0"),
