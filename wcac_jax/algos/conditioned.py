@@ -211,29 +211,22 @@ def _iteration(parts: runtime.UpdateParts, state: PracticalState, pref, directio
             )
         ),
         "train/utopia": z,
-        "train/episode_return": runtime.finished_episode_return(episodes),
-        "train/episodes": jnp.sum(episodes.finished) - finished_before,
-        "train/iteration": state.iteration + 1,
-        "train/advantage": jnp.mean(adv, axis=(0, 1)),
-        "train/return_std": sigma,
-        "train/policy_entropy": jnp.mean(parts.policy.entropy(dist)),
-        "train/value_loss": jnp.mean(info["value_loss"]),
-        "train/approx_kl": jnp.mean(info["approx_kl"]),
-        "train/clip_fraction": jnp.mean(info["clip_fraction"]),
     }
-    new_state = state.replace(
-        actor=state.actor.replace(trainable=params["actor"]),
-        critic=state.critic.replace(trainable=params["critic"]),
-        opt_state=opt_state,
-        obs_stats=runtime.update_obs_stats(config.normalize_obs, state.obs_stats, obs_seen),
+    return practical.finish_iteration(
+        parts,
+        state,
+        metrics,
+        (params, opt_state, info, dist),
+        obs_seen,
+        finished_before,
+        adv,
+        sigma,
         return_stats=return_stats,
         discounted_return=discounted_return,
         utopia=utopia_state,
         env_state=env_state,
         episodes=episodes,
-        iteration=state.iteration + 1,
     )
-    return new_state, metrics
 
 
 def make_preprocess(config: PracticalConfig, raw_size: int):

@@ -524,6 +524,54 @@ def _iteration(parts: runtime.UpdateParts, state: PracticalState, pref: chex.Arr
         "train/scalarized": scalarized,
         "train/g_mu": scalarize.smooth_wc(j_hat, pref, z, config.mu),
         "train/utopia": z,
+    }
+    return finish_iteration(
+        parts,
+        state,
+        metrics,
+        (params, opt_state, info, dist),
+        obs_seen,
+        finished_before,
+        adv,
+        sigma,
+        return_stats=return_stats,
+        discounted_return=discounted_return,
+        utopia=utopia_state,
+        env_state=env_state,
+        episodes=episodes,
+    )
+
+
+def finish_iteration(
+    parts: runtime.UpdateParts,
+    state,
+    metrics: dict,
+    optimised: tuple,
+    obs_seen: chex.Array,
+    finished_before: chex.Array,
+    adv: chex.Array,
+    sigma: chex.Array,
+    **carried,
+):
+    """The end of an iteration the practical and the conditioned update share.
+
+    Args:
+      metrics: the update's own metrics, completed here by the episodes', advantages'
+        and epochs' statistics.
+      optimised: `(params, opt_state, info, dist)` of `_optimise`.
+      obs_seen: `[n, obs]` the raw observations the rollout saw (for the normaliser).
+      finished_before: episodes finished before the rollout.
+      adv: `[L, N, m]` the per-objective advantages; sigma: `[m]` the return scales.
+      carried: the state's fields the rollout and advantages renewed (`return_stats`,
+        `discounted_return`, `utopia`, `env_state`, `episodes`).
+
+    Returns:
+      `(state, metrics)`.
+    """
+    params, opt_state, info, dist = optimised
+    episodes = carried["episodes"]
+    metrics = {
+        **metrics,
         "train/episode_return": runtime.finished_episode_return(episodes),
         "train/episodes": jnp.sum(episodes.finished) - finished_before,
         "train/iteration": state.iteration + 1,
@@ -538,13 +586,9 @@ def _iteration(parts: runtime.UpdateParts, state: PracticalState, pref: chex.Arr
         actor=state.actor.replace(trainable=params["actor"]),
         critic=state.critic.replace(trainable=params["critic"]),
         opt_state=opt_state,
-        obs_stats=runtime.update_obs_stats(config.normalize_obs, state.obs_stats, obs_seen),
-        return_stats=return_stats,
-        discounted_return=discounted_return,
-        utopia=utopia_state,
-        env_state=env_state,
-        episodes=episodes,
+        obs_stats=runtime.update_obs_stats(parts.config.normalize_obs, state.obs_stats, obs_seen),
         iteration=state.iteration + 1,
+        **carried,
     )
     return new_state, metrics
 
