@@ -33,7 +33,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import shutil
 import sys
 import time
 
@@ -314,19 +313,16 @@ def make_out(out: str, resume: bool, overwrite: bool) -> str:
     """The directory the run writes to: `out` (created; a non-empty one only with
     `resume`), or with `overwrite` a fresh one beside it that replaces it when finished.
     Refuses (exit 2, one line) before any training."""
-    from wcac_jax.outputs import staging_dir, unwritable_dir
+    from wcac_jax.outputs import fresh_staging_dir
 
     if resume and overwrite:
         fail(f"--out {out!r}: --resume adds to it and --overwrite replaces it: give one")
     if os.path.exists(out) and not os.path.isdir(out):
         fail(f"--out {out!r} exists and is not a directory")
     if overwrite:
-        work = staging_dir(out)
-        shutil.rmtree(work, ignore_errors=True)  # an earlier, interrupted try's
-        problem = unwritable_dir(work)
+        work, problem = fresh_staging_dir(out)
         if problem:
             fail(f"--overwrite: --out {out!r} can't be replaced ({problem})")
-        os.makedirs(work)
         return work
     if os.path.isdir(out) and os.listdir(out) and not resume:
         fail(f"--out {out!r} is not empty (--resume adds to it, --overwrite replaces it)")

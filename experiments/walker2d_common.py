@@ -13,7 +13,6 @@ import inspect
 import json
 import math
 import os
-import shutil
 import sys
 
 import jax
@@ -22,10 +21,9 @@ import numpy as np
 from wcac_jax import cli, envs, pareto, presets
 from wcac_jax.algos import PaperConfig
 from wcac_jax.outputs import (
+    fresh_staging_dir,
     library_versions,
     replace_dir,
-    staging_dir,
-    unwritable_dir,
 )
 from wcac_jax.sweep import (
     SweepConfig,
@@ -146,12 +144,9 @@ def make_out(out: str, resume: bool = False, overwrite: bool = False) -> str:
     if os.path.exists(out) and not os.path.isdir(out):
         fail(f"--out {out!r} exists and is not a directory")
     if overwrite:
-        work = staging_dir(out)
-        shutil.rmtree(work, ignore_errors=True)  # an earlier, interrupted try's
-        problem = unwritable_dir(work)
+        work, problem = fresh_staging_dir(out)
         if problem:
             fail(f"--overwrite: --out {out!r} can't be replaced ({problem})")
-        os.makedirs(work)
         return work
     if os.path.exists(out) and os.listdir(out):
         fail(

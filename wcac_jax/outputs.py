@@ -49,6 +49,18 @@ def staging_dir(out: str) -> str:
     return os.path.join(parent, f".{name}.overwrite")
 
 
+def fresh_staging_dir(out: str) -> tuple[str, str | None]:
+    """`(staging_dir(out), None)` with the staging directory emptied of an earlier,
+    interrupted try's and created; or `(its path, why it can't be written)`, creating
+    nothing."""
+    work = staging_dir(out)
+    shutil.rmtree(work, ignore_errors=True)
+    problem = unwritable_dir(work)
+    if problem is None:
+        os.makedirs(work)
+    return work, problem
+
+
 def replace_dir(new: str, out: str) -> None:
     """Renames the finished directory `new` to `out` (`os.replace`), and removes the old
     `out` once the new one is in place."""
