@@ -345,12 +345,19 @@ def write_table(summary: dict, results: str) -> None:
     lines += [f"- {env}: {note}" for env, note in summary["pgmorl_mapping"].items()]
     lines += ["", "## Published numbers", ""]
     if summary["published"]:
-        lines += ["| task | method | metric | value | source | how it differs from ours |"]
-        lines += ["|---|---|---|---|---|---|"]
+        lines += [
+            "`ours`: the task of this suite each number is set beside. A value whose "
+            "`checked` is not true in `published.json` is flagged as not read in its source.",
+            "",
+            "| task | ours | method | metric | value | source | how it differs from ours |",
+            "|---|---|---|---|---|---|---|",
+        ]
         for p in summary["published"]:
+            # only a value read in its source goes unflagged
+            flag = "" if p.get("checked") is True else " (not read in the source)"
             lines.append(
-                f"| {p['task']} | {p['method']} | {p['metric']} | {_fmt(p['value'])} "
-                f"| {p['source']} | {p['differs']} |"
+                f"| {p['task']} | {p.get('ours', '-')} | {p['method']} | {p['metric']} "
+                f"| {_fmt(p['value'])}{flag} | {p['source']} | {p['differs']} |"
             )
     else:
         lines.append("None entered yet (`published.json`, each with its source).")

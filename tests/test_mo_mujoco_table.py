@@ -48,12 +48,24 @@ def results(tmp_path):
     published = [
         {
             "task": "HalfCheetah-2d",
+            "ours": "halfcheetah",
             "method": "M",
             "metric": "HV",
             "value": 1.0e6,
             "source": "a paper, Table 1",
             "differs": "v2 model",
-        }
+            "checked": True,
+        },
+        {
+            "task": "Hopper-3d",
+            "ours": "hopper",
+            "method": "N",
+            "metric": "EU",
+            "value": 3210.0,
+            "source": "another paper",
+            "differs": "as cited elsewhere",
+            "checked": False,
+        },
     ]
     (tmp_path / "published.json").write_text(json.dumps(published))
     return str(tmp_path)
@@ -79,7 +91,13 @@ def test_table_files(results):
     mo_mujoco.main(["table", "--results", results])
     md = open(os.path.join(results, "table.md")).read()
     assert "| halfcheetah | smooth_wc | 2 | 1,000 | 0.99 | 1.389e+04 | 1.493e+06 |" in md
-    assert "| HalfCheetah-2d | M | HV | 1e+06 | a paper, Table 1 | v2 model |" in md
+    assert "| HalfCheetah-2d | halfcheetah | M | HV | 1e+06 | a paper, Table 1 | v2 model |" in md
+    # a value not read in its source is flagged, a checked one is not
+    assert (
+        "| Hopper-3d | hopper | N | EU | 3210 (not read in the source) | another paper "
+        "| as cited elsewhere |" in md
+    )
+    assert md.count("(not read in the source)") == 1
     saved = json.load(open(os.path.join(results, "table.json")))
     assert len(saved["rows"]) == 2 and saved["published"][0]["method"] == "M"
 
