@@ -96,6 +96,7 @@ R = {
     # the recommendation experiment
     "kuairand": f"{RES}/kuairand",
     "kuairand_headroom": f"{RES}/kuairand_headroom",
+    "kuairand_no_bc": f"{RES}/kuairand_no_bc",
 }
 
 STATED_REF = (-500.0, -3000.0)  # Walker2d's default_hv_ref at T = 500
@@ -1149,9 +1150,46 @@ def v_kuairand_alg1_gap(doc: Doc) -> str:
     return doc.link(f"{num(100 * m['gap_share'])}% [95%: {num(100 * lo)}–{num(100 * hi)}%]", path)
 
 
+def v_kuairand_no_bc_ddpg_gaps(doc: Doc) -> str:
+    """The DDPG-style actor-critics' shares of the gap without the behaviour-cloning term."""
+    path = f"{R['kuairand_no_bc']}/table.json"
+    m = load(path)["methods"]
+    names = ("MOAC (linear)", "MOCHA (linear)", "PDPG (DNN)", "wcac (DDPG-style)")
+    shares = [100 * m[n]["gap_share"] for n in names]
+    return doc.link(f"{num(min(shares))}–{num(max(shares))}%", path)
+
+
+def v_kuairand_no_bc_alg1_gap(doc: Doc) -> str:
+    path = f"{R['kuairand_no_bc']}/table.json"
+    m = load(path)["methods"]["wcac (Algorithm 1)"]
+    lo, hi = m["gap_share_ci95"]
+    share = f"{num(100 * m['gap_share'])}% [95%: {num(100 * lo)}% to {num(100 * hi)}%]"
+    return doc.link(share, path)
+
+
+def _end_action(doc: Doc, key: str, methods: tuple[str, ...]) -> str:
+    """The mean action of the last window of `methods`' curves, over data sets and seeds."""
+    path = f"{R[key]}/curves.json"
+    sets = load(path)["data_sets"]
+    ends = [seed[-1] for ds in sets for m in methods for seed in ds[m]["mean_action"]]
+    return doc.link(f"about {num(sum(ends) / len(ends))}", path)
+
+
+def v_kuairand_no_bc_ddpg_action(doc: Doc) -> str:
+    return _end_action(doc, "kuairand_no_bc", ("moac", "mocha", "pdpg", "wcac"))
+
+
+def v_kuairand_no_bc_alg1_action(doc: Doc) -> str:
+    return _end_action(doc, "kuairand_no_bc", ("alg1",))
+
+
 VALUES: dict[str, Callable[[Doc], str]] = {
     "kuairand_training": v_kuairand_training,
     "kuairand_alg1_gap": v_kuairand_alg1_gap,
+    "kuairand_no_bc_ddpg_gaps": v_kuairand_no_bc_ddpg_gaps,
+    "kuairand_no_bc_alg1_gap": v_kuairand_no_bc_alg1_gap,
+    "kuairand_no_bc_ddpg_action": v_kuairand_no_bc_ddpg_action,
+    "kuairand_no_bc_alg1_action": v_kuairand_no_bc_alg1_action,
     "default_wall_range": v_default_wall_range,
     "selection_ge7": v_selection_ge7,
 }
