@@ -97,6 +97,8 @@ R = {
     "kuairand": f"{RES}/kuairand",
     "kuairand_headroom": f"{RES}/kuairand_headroom",
     "kuairand_no_bc": f"{RES}/kuairand_no_bc",
+    "conditioned": f"{RES}/conditioned_walker2d",
+    "kuairand_paper_scale": f"{RES}/kuairand_paper_scale",
 }
 
 STATED_REF = (-500.0, -3000.0)  # Walker2d's default_hv_ref at T = 500
@@ -961,10 +963,10 @@ def kuairand(doc: Doc, key: str, kind: str) -> str:
     return md([doc.link(label, path), *HEADS], rows)
 
 
-def t_kuairand_unified(doc: Doc) -> str:
+def t_kuairand_unified(doc: Doc, key: str = "kuairand") -> str:
     """The unified objective's true value, its change vs BC and the share of the
     BC -> oracle gap, with 95% intervals; NCIS's effective sample size."""
-    path = f"{R['kuairand']}/table.json"
+    path = f"{R[key]}/table.json"
     d = load(path)
     rows = []
     for name, m in d["methods"].items():
@@ -1045,6 +1047,75 @@ def v_selection_ge7(doc: Doc) -> str:
     fronts = [front_of(r) for r in R["select5_seeds"]]
     text = f"{sum(f.n_nd >= 7 for f in fronts)} of {len(fronts)}"
     return doc.link(text, os.path.dirname(R["select5_seeds"][0]))
+
+
+def t_conditioned(doc: Doc) -> str:
+    """Each arm's fronts per seed and their mean: PGMORL-scale and project hypervolume,
+    expected utility, non-dominated count, order, the ends, budget and wall time."""
+    path = f"{R['conditioned']}/summary.json"
+    d = load(path)
+    arms = {
+        "conditioned": "one conditioned network, 3M",
+        "independent_9x333k": "9 independent, 333k each (3M)",
+        "independent_9x1M": "9 independent, 1M each (9M)",
+    }
+    rows = []
+    for arm, label in arms.items():
+        runs = d["runs"].get(arm, {})
+        for seed, r in sorted(runs.items(), key=lambda kv: int(kv[0])) + [("mean", None)]:
+            r = d["means"][arm] if r is None else r
+            rows.append(
+                [
+                    doc.link(label, path) if seed in ("0", "mean") else label,
+                    seed,
+                    f"{r['hv_pgmorl'] / 1e6:.2f}e6",
+                    f"{r['hv_project'] / 1e6:.2f}e6",
+                    num(r["expected_utility"]),
+                    num(r["nondominated"], 1 if seed == "mean" else 0),
+                    num(r["spearman_p0_forward"], 2),
+                    num(r["forward_end_speed"], 2),
+                    num(r["control_end_control_return"]),
+                    num(r["env_steps_total"]),
+                    num(r["wall_s"]),
+                ]
+            )
+    head = ["front", "seed", "HV (PGMORL scale)", "HV (project)", "EU", "non-dom."]
+    head += ["Spearman", "`[1, 0]` m/s", "`[0, 1]` control", "train env steps", "wall s"]
+    return md(head, rows, "llrrrrrrrrr")
+
+
+def t_conditioned_cost(doc: Doc) -> str:
+    """The cost of more front points: seed 0's network evaluated at P preferences (its
+    training once, plus each evaluation) against P independent 1M-step policies, whose
+    seconds are the 9 x 1M fronts' mean wall per preference times P (extrapolated)."""
+    path = f"{R['conditioned']}/summary.json"
+    d = load(path)
+    train = d["runs"]["conditioned"]["0"]
+    per_pref = d["means"]["independent_9x1M"]
+    steps_pp = per_pref["env_steps_total"] / 9
+    wall_pp = per_pref["wall_s"] / 9
+    rows = []
+    for c in d["cost_growth"]:
+        p = c["eval_prefs"]
+        rows.append(
+            [
+                doc.link(str(p), path),
+                num(train["env_steps_total"] + c["eval_env_steps"]),
+                num(train["wall_s"] + c["eval_s"]),
+                num(p * steps_pp),
+                num(p * wall_pp),
+            ]
+        )
+    head = ["front points P", "conditioned: env steps", "conditioned: s"]
+    head += ["P independent x 1M: env steps", "P independent x 1M: s (extrapolated)"]
+    return md(head, rows, "lrrrr")
+
+
+def t_conditioned_published(doc: Doc) -> str:
+    path = f"{R['conditioned']}/summary.json"
+    pub = load(path)["published_hv_3M"]
+    rows = [[doc.link(k, path), f"{v / 1e6:.2f}e6"] for k, v in pub.items()]
+    return md(["method (3M env steps, published)", "HV (PGMORL scale)"], rows, "lr")
 
 
 TABLES: dict[str, Callable[[Doc], str]] = {
@@ -1131,6 +1202,10 @@ TABLES: dict[str, Callable[[Doc], str]] = {
     "kuairand_ncis": lambda doc: kuairand(doc, "kuairand", "ncis"),
     "kuairand_truth": lambda doc: kuairand(doc, "kuairand", "truth"),
     "kuairand_unified": t_kuairand_unified,
+    "conditioned": t_conditioned,
+    "conditioned_published": t_conditioned_published,
+    "conditioned_cost": t_conditioned_cost,
+    "kuairand_paper_scale_unified": lambda doc: t_kuairand_unified(doc, "kuairand_paper_scale"),
     "kuairand_headroom": t_kuairand_headroom,
     "kuairand_fig2": t_kuairand_fig2,
     "kuairand_run": t_kuairand_run,

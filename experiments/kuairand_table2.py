@@ -27,7 +27,8 @@ objective under that model. Writes to `OUT`:
 - `table.md`: the Table 2 analogue; `fig2.png`, `fig2.json`: the Fig. 2 analogue;
 - `curves.json`: per data set, method and seed, the critic loss and mean action in 40
   windows of the training steps;
-- `run.json`: configuration, sizes and wall-clock times.
+- `run.json`: configuration, sizes, wall-clock and CPU seconds, peak memory (`max_rss_gib`:
+  each process that trained a data set, then the one that wrote the table).
 
 `OUT` must be new or empty unless `--overwrite` is given; then it is replaced whole (no
 file of the previous results is kept). The results are written into a new directory
@@ -445,7 +446,13 @@ def data_set_part(
         "fig2": fig2,
         "has_truth": model is not None,
         "cpu_seconds": round(sum(resource.getrusage(resource.RUSAGE_SELF)[:2]), 1),
+        "max_rss_gib": max_rss_gib(),
     }
+
+
+def max_rss_gib() -> float:
+    """This process's peak resident memory so far, GiB (Linux reports it in KiB)."""
+    return round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**20, 3)
 
 
 def run(
@@ -469,6 +476,7 @@ def run(
     `data_set_part`, e.g. run in separate processes) replace the training."""
     acfg = alg1.Alg1Config() if acfg is None else acfg
     t0 = time.perf_counter()
+    merged = parts is not None
     if parts is None:
         parts = [
             data_set_part(d, p, cfg, acfg, seed, seeds, version, log, protocol)
@@ -493,7 +501,11 @@ def run(
         },
     }
     fig2 = {"prefs": leaning_prefs().tolist(), "signals": list(SIGNALS), **parts[0]["fig2"]}
-    total = time.perf_counter() - t0 + sum(sum(p["times"].values()) for p in parts)
+    # this process's wall time; merged parts ran elsewhere (maybe side by side), and
+    # their methods' seconds are added as they were measured
+    total = time.perf_counter() - t0
+    if merged:
+        total += sum(sum(p["times"].values()) for p in parts)
     run_info = {
         "synthetic": has_truth,
         "protocol": protocols[0],
@@ -506,6 +518,8 @@ def run(
         # CPU seconds of the processes: with other jobs on the machine, wall time
         # overstates what the run itself needs
         "cpu_seconds": [p["cpu_seconds"] for p in parts],
+        # the peak resident memory of each process that held a data set, and of this one
+        "max_rss_gib": [p.get("max_rss_gib") for p in parts] + [max_rss_gib()],
         "cpu_count": os.cpu_count(),
         "load_average_at_end": list(os.getloadavg()),
     }

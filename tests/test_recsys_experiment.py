@@ -5,6 +5,7 @@ import json
 import math
 import os
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -35,12 +36,17 @@ ROW_KEYS = {
 }  # fmt: skip
 
 
+WALL = {}  # the module fixture's wall seconds
+
+
 @pytest.fixture(scope="module")
 def run(tmp_path_factory):
     data = str(tmp_path_factory.mktemp("kuairand"))
     synth.write(synth.SynthConfig(users=40, videos=200, rows=4000, seed=2), data)
     out = str(tmp_path_factory.mktemp("out") / "results" / "table2")  # parents made as needed
+    start = time.perf_counter()
     assert kuairand_table2.main(["--data", data, "--out", out, "--quick", "--seeds", "2"]) == 0
+    WALL["run"] = time.perf_counter() - start
     return data, out
 
 
@@ -101,7 +107,11 @@ def test_markdown_figure_curves_and_run_record(run):
     assert len(fig2["improvement"]["truth"]) == 7
     info = json.load(open(os.path.join(out, "run.json")))
     assert info["data_sets"][0]["state_dim"] == 1044 and info["synthetic"] is True
-    assert info["seconds"]["total"] > 0
+    # the whole run's seconds, each counted once: no more than the call's wall time
+    assert 0 < info["seconds"]["total"] <= WALL["run"]
+    # one data set trained here, and this process: its peak memory, above what numpy
+    # and jax alone take and far below the machine's
+    assert len(info["max_rss_gib"]) == 2 and 0.1 < info["max_rss_gib"][-1] < 24
     curves = json.load(open(os.path.join(out, "curves.json")))
     for method in ("moac", "mocha", "pdpg", "wcac", "alg1"):
         c = curves["data_sets"][0][method]
