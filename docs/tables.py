@@ -291,6 +291,26 @@ def md(header: list[str], rows: list[list[str]], align: str | None = None) -> st
     return "\n".join(lines)
 
 
+def conditioned_glance(doc: Doc) -> list[str]:
+    """The glance row of the one conditioned network (`conditioned_walker2d`'s seeds)."""
+    path = f"{R['conditioned']}/summary.json"
+    summary = load(path)
+    runs = sorted(summary["runs"]["conditioned"].items(), key=lambda kv: int(kv[0]))
+    pub = summary["published_hv_3M"]
+    cell = lambda key, fmt: ", ".join(doc.link(fmt(r[key]), path) for _, r in runs)  # noqa: E731
+    hv = lambda v: f"{v / 1e6:.2f}e6"  # noqa: E731
+    pgmorl, cola = doc.link(hv(pub["PGMORL"]), path), doc.link(hv(pub["COLA"]), path)
+    return [
+        "`walker2d --conditioned`",
+        "one preference-conditioned network, 3M env steps in all, 33 preferences evaluated",
+        f"seeds {', '.join(s for s, _ in runs)}: PGMORL-scale HV "
+        f"{cell('hv_pgmorl', hv)} (published at 3M: PGMORL {pgmorl}, COLA {cola}); "
+        f"`[1, 0]` walks at {cell('forward_end_speed', lambda v: num(v, 2))} "
+        f"m/s; Spearman {cell('spearman_p0_forward', lambda v: num(v, 2))}",
+        f"{cell('wall_s', lambda v: num(v / 60, 1))} min",
+    ]
+
+
 def t_glance(doc: Doc) -> str:
     fronts = [front_of(r) for r in R["cli_default"]]
     nd = ", ".join(doc.link(str(f.n_nd), f.source) for f in fronts)
@@ -310,6 +330,7 @@ def t_glance(doc: Doc) -> str:
             f"Spearman(`p₀`, forward) {rho}",
             f"{wall} min",
         ],
+        conditioned_glance(doc),
         [
             "`concave_bandit`",
             "paper's update tuned for the bandit, `--n-prefs 11`",
