@@ -964,13 +964,19 @@ def kuairand(doc: Doc, key: str, kind: str) -> str:
     path = f"{R[key]}/table.json"
     d = load(path)
     rel_key = "vs_bc" if kind == "ncis" else "truth_vs_bc"
+    # NCIS's verdicts only on signals with enough logged events (`kuairand_table2.py`)
+    few = {}
+    if kind == "ncis" and "ncis_events" in d:
+        few = {s: n for s, n in d["ncis_events"].items() if n < d["min_ncis_events"]}
     rows = []
     for name, m in d["methods"].items():
         cells = []
         for s in SIGNALS:
             cell = num(m[kind][s] * SCALE.get(s, 1.0), 3)
             lo, hi = m[f"{rel_key}_ci95"][s]
-            if name != "Behavior-Clone":
+            if name != "Behavior-Clone" and s in few:
+                cell += f" (few events: {few[s]})"
+            elif name != "Behavior-Clone":
                 ns = lo is None or lo <= 0 <= hi
                 cell += " (n.s.)" if ns else f" ({pct(m[rel_key][s])})"
             cells.append(cell)

@@ -21,7 +21,9 @@ objective under that model. Writes to `OUT`:
 - `table.json`: `{"seeds", "data_seeds", "methods": {name: {"ncis", "ncis_ci95",
   "vs_bc", "vs_bc_ci95", "ess", "truth", "truth_ci95", "truth_vs_bc",
   "truth_vs_bc_ci95", "unified_truth", "unified_truth_ci95", "unified_vs_bc",
-  "unified_vs_bc_ci95", "gap_share", "gap_share_ci95"}}, "logged"}` (the `truth`
+  "unified_vs_bc_ci95", "gap_share", "gap_share_ci95"}}, "logged", "ncis_events",
+  "min_ncis_events"}` (NCIS gives no verdict on a signal with fewer logged events
+  among the test rows than `min_ncis_events`; the `truth`
   entries, the oracle's and the gap only on synthetic data), means over data sets and
   training seeds with 95% bootstrap intervals (`wcac_jax.recsys.stats`);
 - `table.md`: the Table 2 analogue; `fig2.png`, `fig2.json`: the Fig. 2 analogue;
@@ -144,13 +146,35 @@ def _fmt(v: float, scale: float) -> str:
     return f"{v * scale:.3f}"
 
 
-def _cell(row: dict, kind: str, sig: str, scale: float, is_bc: bool) -> str:
+# Fewer logged events of a signal among the test rows than this (over all data sets) and
+# NCIS gives no verdict on it: a bootstrap over the test rows resamples those same few
+# events, so its interval cannot show how little they say (on the synthetic sets, forward's
+# dozen events gave an interval excluding 0 around a change ten times the true one).
+MIN_NCIS_EVENTS = 30
+
+
+def ncis_events(parts: list) -> dict:
+    """`{signal: events}`: the logged test rows' count of each 0/1 signal, summed over the
+    data sets (watch time, not a count, is left out)."""
+    return {
+        s: int(round(sum(p["logged"]["mean"][s] * p["size"]["test_rows"] for p in parts)))
+        for s in SIGNALS
+        if s != "watch_time"
+    }
+
+
+def _cell(
+    row: dict, kind: str, sig: str, scale: float, is_bc: bool, events: dict | None = None
+) -> str:
     """`mean [lo, hi]` and, off Behavior-Clone, the change vs BC where its interval
-    excludes 0 (else `n.s.`)."""
+    excludes 0 (else `n.s.`); for NCIS, `few events` where the test rows hold fewer than
+    `MIN_NCIS_EVENTS` of the signal (`events`)."""
     lo, hi = row[f"{kind}_ci95"][sig]
     cell = f"{_fmt(row[kind][sig], scale)} [{_fmt(lo, scale)}, {_fmt(hi, scale)}]"
     if is_bc:
         return cell
+    if kind == "ncis" and events is not None and events.get(sig, MIN_NCIS_EVENTS) < MIN_NCIS_EVENTS:
+        return cell + f" (few events: {events[sig]})"
     rel = row["vs_bc" if kind == "ncis" else "truth_vs_bc"][sig]
     rel_ci = row["vs_bc_ci95" if kind == "ncis" else "truth_vs_bc_ci95"][sig]
     if rel is None or rel_ci[0] is None:
@@ -173,7 +197,9 @@ def markdown(table: dict, has_truth: bool) -> str:
         lines += [f"| {label} | " + " | ".join(c[1] for c in COLUMNS) + " |"]
         lines += ["|---" * (len(COLUMNS) + 1) + "|"]
         for name, row in table["methods"].items():
-            cells = [_cell(row, kind, s, sc, name == NAMES["bc"]) for s, _, sc in COLUMNS]
+            is_bc = name == NAMES["bc"]
+            events = table.get("ncis_events")
+            cells = [_cell(row, kind, s, sc, is_bc, events) for s, _, sc in COLUMNS]
             lines.append(f"| {name} | " + " | ".join(cells) + " |")
         lines.append("")
     if has_truth:
@@ -495,6 +521,8 @@ def run(
         "unified_preference": UNIFIED.tolist(),
         "bootstrap": {"replicates": n_boot, "resampled": "test rows and training seeds"},
         "methods": summarise([p["scores"] for p in parts], draws, has_truth),
+        "ncis_events": ncis_events(parts),
+        "min_ncis_events": MIN_NCIS_EVENTS,
         "logged": {
             k: _signals(np.mean([[li[k][s] for s in SIGNALS] for li in logged], axis=0))
             for k in logged[0]

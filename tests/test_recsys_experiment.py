@@ -264,3 +264,29 @@ def test_tscac_protocol_runs_and_is_recorded(run, tmp_path):
     assert list(table["methods"]) == list(METHODS)
     for row in table["methods"].values():
         assert all(math.isfinite(v) for v in row["truth"].values())
+
+
+def test_ncis_events_are_the_logged_test_rows_events(run):
+    """The events NCIS's verdicts rest on: each 0/1 signal's count among the test rows,
+    recounted here from the loaded data."""
+    data_dir, out = run
+    table = json.load(open(os.path.join(out, "table.json")))
+    data = load(data_dir)
+    test = np.asarray(data.reward[data.n_train :])
+    want = {s: int((test[:, i] > 0).sum()) for i, s in enumerate(SIGNALS) if s != "watch_time"}
+    assert table["ncis_events"] == want
+    assert table["min_ncis_events"] == kuairand_table2.MIN_NCIS_EVENTS
+
+
+def test_ncis_gives_no_verdict_on_a_signal_with_few_events():
+    row = {
+        "ncis": {"forward": 0.002, "comment": 0.003},
+        "ncis_ci95": {"forward": [0.001, 0.003], "comment": [0.002, 0.004]},
+        "vs_bc": {"forward": -60.0, "comment": -30.0},
+        "vs_bc_ci95": {"forward": [-80.0, -40.0], "comment": [-45.0, -15.0]},
+    }
+    events = {"forward": 12, "comment": 52}
+    cell = kuairand_table2._cell(row, "ncis", "forward", 1e3, False, events)
+    assert cell == "2.000 [1.000, 3.000] (few events: 12)"
+    cell = kuairand_table2._cell(row, "ncis", "comment", 1e3, False, events)
+    assert cell == "3.000 [2.000, 4.000] (-30.0%)"
