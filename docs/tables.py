@@ -98,6 +98,7 @@ R = {
     "kuairand_headroom": f"{RES}/kuairand_headroom",
     "kuairand_no_bc": f"{RES}/kuairand_no_bc",
     "conditioned": f"{RES}/conditioned_walker2d",
+    "mo_mujoco": f"{RES}/mo_mujoco",
     "kuairand_paper_scale": f"{RES}/kuairand_paper_scale",
 }
 
@@ -1111,6 +1112,58 @@ def t_conditioned(doc: Doc) -> str:
     return md(head, rows, "llrrrrrrrrr")
 
 
+def sci(x: float) -> str:
+    """`5.54e6`: three significant digits, the exponent without sign padding."""
+    mantissa, exponent = f"{x:.2e}".split("e")
+    return f"{mantissa}e{int(exponent)}".replace("-", MINUS)
+
+
+def t_mo_mujoco(doc: Doc) -> str:
+    """The MuJoCo suite's fronts (`mo_mujoco.py table`'s `table.json`): per task and
+    scalarization, both hypervolume conventions, EU, the non-dominated count, the
+    forward end's speed against the PPO reference's, and the wall times."""
+    path = f"{R['mo_mujoco']}/table.json"
+    rows = []
+    for r in load(path)["rows"]:
+        rows.append(
+            [
+                doc.link(f"`{r['env']}`", path),
+                r["scalarization"],
+                f"{r['n_prefs']} x {num(r['env_steps_per_pref'])}",
+                sci(r["hv_morl_baselines"]),
+                sci(r["hv_pgmorl"]),
+                num(r["expected_utility"], 1),
+                str(r["nondominated"]),
+                num(r["forward_end_mean_x_velocity"], 2),
+                num(r.get("reference_mean_x_velocity"), 2),
+                num(r.get("speed_ratio"), 2),
+                num(r["wall_s"]),
+                num(r.get("reference_wall_s")),
+                num(r.get("wall_ratio"), 2),
+            ]
+        )
+    head = ["task", "direction", "P x steps", "HV (morl-baselines)", "HV (PGMORL)", "EU"]
+    head += ["non-dom.", "forward end m/s", "PPO m/s", "speed ratio", "wall s", "PPO wall s"]
+    head += ["wall ratio"]
+    return md(head, rows, "lllrrrrrrrrrr")
+
+
+def t_mo_mujoco_published(doc: Doc) -> str:
+    """The published hypervolumes set beside the suite's tasks (`published.json`), one
+    row per published task, one column per method."""
+    path = f"{R['mo_mujoco']}/published.json"
+    entries = [p for p in load(path) if p["metric"] == "HV"]
+    methods = list(dict.fromkeys(p["method"] for p in entries))
+    tasks = list(dict.fromkeys((p["task"], p["ours"]) for p in entries))
+    value = {(p["task"], p["method"]): p["value"] for p in entries}
+    rows = [
+        [doc.link(task, path), f"`{ours}`"]
+        + [sci(value[(task, m)]) if (task, m) in value else "–" for m in methods]
+        for task, ours in tasks
+    ]
+    return md(["published task", "ours", *methods], rows, "ll" + "r" * len(methods))
+
+
 def t_conditioned_cost(doc: Doc) -> str:
     """The cost of more front points: seed 0's network evaluated at P preferences (its
     training once, plus each evaluation) against P independent 1M-step policies, whose
@@ -1232,6 +1285,8 @@ TABLES: dict[str, Callable[[Doc], str]] = {
     "conditioned": t_conditioned,
     "conditioned_published": t_conditioned_published,
     "conditioned_cost": t_conditioned_cost,
+    "mo_mujoco": t_mo_mujoco,
+    "mo_mujoco_published": t_mo_mujoco_published,
     "kuairand_paper_scale_unified": lambda doc: t_kuairand_unified(doc, "kuairand_paper_scale"),
     "kuairand_headroom": t_kuairand_headroom,
     "kuairand_fig2": t_kuairand_fig2,
