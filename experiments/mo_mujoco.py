@@ -150,13 +150,13 @@ def run_fronts(envs, results: str, seed: int, smoke: bool, resume=False, overwri
 
 def run_ppo(env: str, out: str, steps: int, seed: int, eval_episodes: int) -> int:
     """One sbx PPO run on `env`'s single-objective v5 task; writes `out` (JSON)."""
-    from reference_ppo import write_atomic  # as self-contained as this command
+    # the Walker2d yardstick's PPO and writer: as self-contained as this command
+    from reference_ppo import make_ppo, write_atomic
 
     try:
         import gymnasium as gym
         import numpy as np
-        from sbx import PPO
-        from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+        import sbx  # noqa: F401  (make_ppo's; imported here for the one-line error)
     except ImportError as e:
         print(f"error: {e}; `ppo` needs sbx-rl and gymnasium[mujoco]", file=sys.stderr)
         return 2
@@ -165,21 +165,7 @@ def run_ppo(env: str, out: str, steps: int, seed: int, eval_episodes: int) -> in
     def make():
         return gym.make(gym_id, max_episode_steps=EPISODE_LENGTH)
 
-    venv = VecNormalize(DummyVecEnv([make] * 16), gamma=0.99)
-    model = PPO(
-        "MlpPolicy",
-        venv,
-        n_steps=128,
-        batch_size=256,
-        n_epochs=10,
-        learning_rate=3e-4,
-        clip_range=0.2,
-        gae_lambda=0.95,
-        gamma=0.99,
-        policy_kwargs={"net_arch": [64, 64], "log_std_init": 0.0},
-        seed=seed,
-        verbose=0,
-    )
+    model, venv = make_ppo(make, seed)
     t0 = time.perf_counter()
     model.learn(total_timesteps=steps)
     wall_s = time.perf_counter() - t0

@@ -49,8 +49,7 @@ def main(argv=None) -> int:
     try:
         import gymnasium as gym
         import numpy as np
-        from sbx import PPO
-        from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+        import sbx  # noqa: F401  (make_ppo's; imported here for the one-line error)
     except ImportError as e:
         print(
             f"error: {e}; this script needs sbx-rl and gymnasium[mujoco] (see its docstring)",
@@ -61,21 +60,7 @@ def main(argv=None) -> int:
     def make():
         return gym.make("Walker2d-v5", max_episode_steps=500, ctrl_cost_weight=0.0)
 
-    venv = VecNormalize(DummyVecEnv([make] * 16), gamma=0.99)
-    model = PPO(
-        "MlpPolicy",
-        venv,
-        n_steps=128,
-        batch_size=256,
-        n_epochs=10,
-        learning_rate=3e-4,
-        clip_range=0.2,
-        gae_lambda=0.95,
-        gamma=0.99,
-        policy_kwargs={"net_arch": [64, 64], "log_std_init": 0.0},
-        seed=args.seed,
-        verbose=0,
-    )
+    model, venv = make_ppo(make, args.seed)
     cpu0 = resource.getrusage(resource.RUSAGE_SELF)
     t0 = time.perf_counter()
     model.learn(total_timesteps=args.steps)
@@ -114,6 +99,30 @@ def main(argv=None) -> int:
         os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
         write_atomic(args.out, (json.dumps(result, indent=1)).encode())
     return 0
+
+
+def make_ppo(make_env, seed: int):
+    """`(model, venv)`: the yardstick's PPO (the settings of this module's docstring) on
+    16 copies of `make_env` under `VecNormalize`; needs sbx-rl and Stable-Baselines3."""
+    from sbx import PPO
+    from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+
+    venv = VecNormalize(DummyVecEnv([make_env] * 16), gamma=0.99)
+    model = PPO(
+        "MlpPolicy",
+        venv,
+        n_steps=128,
+        batch_size=256,
+        n_epochs=10,
+        learning_rate=3e-4,
+        clip_range=0.2,
+        gae_lambda=0.95,
+        gamma=0.99,
+        policy_kwargs={"net_arch": [64, 64], "log_std_init": 0.0},
+        seed=seed,
+        verbose=0,
+    )
+    return model, venv
 
 
 def write_atomic(path: str, data: bytes) -> None:
