@@ -1164,6 +1164,33 @@ def t_mo_mujoco_published(doc: Doc) -> str:
     return md(["published task", "ours", *methods], rows, "ll" + "r" * len(methods))
 
 
+def t_mo_mujoco_seeds(doc: Doc) -> str:
+    """smooth_wc against linear over seeds (`table.json`'s `seeds`): per task and
+    measure, each direction's mean and seed range, and the winner where the ranges do
+    not overlap."""
+    path = f"{R['mo_mujoco']}/table.json"
+    names = {
+        "hv_morl_baselines": ("HV (morl-baselines)", sci),
+        "hv_pgmorl": ("HV (PGMORL)", sci),
+        "forward": ("forward end m/s", lambda x: num(x, 2)),
+    }
+    rows = []
+    for env, c in load(path)["seeds"].items():
+        entries = {**c["hypervolume"], "forward": c["forward_speed"]}
+        for key, e in entries.items():
+            name, fmt = names[key]
+            cells = [
+                f"{fmt(e['mean'][s])} [{fmt(min(e[s]))}, {fmt(max(e[s]))}]"
+                for s in ("smooth_wc", "linear")
+            ]
+            seeds = ", ".join(map(str, c["seeds"]))
+            rows.append(
+                [doc.link(f"`{env}`", path), seeds, name, *cells, e["winner"] or "within spread"]
+            )
+    head = ["task", "seeds", "measure", "smooth_wc mean [range]", "linear mean [range]"]
+    return md([*head, "winner"], rows, "lllrrl")
+
+
 def t_conditioned_cost(doc: Doc) -> str:
     """The cost of more front points: seed 0's network evaluated at P preferences (its
     training once, plus each evaluation) against P independent 1M-step policies, whose
@@ -1287,6 +1314,7 @@ TABLES: dict[str, Callable[[Doc], str]] = {
     "conditioned_cost": t_conditioned_cost,
     "mo_mujoco": t_mo_mujoco,
     "mo_mujoco_published": t_mo_mujoco_published,
+    "mo_mujoco_seeds": t_mo_mujoco_seeds,
     "kuairand_paper_scale_unified": lambda doc: t_kuairand_unified(doc, "kuairand_paper_scale"),
     "kuairand_headroom": t_kuairand_headroom,
     "kuairand_fig2": t_kuairand_fig2,

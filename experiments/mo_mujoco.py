@@ -6,8 +6,9 @@ Three commands, each writing under `--results` (default `experiments/results/mo_
 
 - `fronts`: for each task (`--envs`, default all), `python -m wcac_jax.sweep --env E
   --scalarization S --seed N` for S in smooth_wc and linear, one compiled program each,
-  into `<env>/<S>/`. `--smoke`: 3 preferences (the corners on 3 objectives), 20,480 env
-  steps each, 1 evaluation episode, to check the script end to end.
+  into `<env>/<S>/` for seed 0 and `<env>/seed<N>/<S>/` for another seed (`front_dir`).
+  `--smoke`: 3 preferences (the corners on 3 objectives), 20,480 env steps each, 1
+  evaluation episode, to check the script end to end.
 - `ppo`: the yardstick of one task, sbx PPO with `experiments/reference_ppo.py`'s settings
   (16 environments, 64 x 64, rollouts of 128, minibatches of 256, 10 epochs, Adam 3e-4,
   `VecNormalize`) on the task's own single-objective Gymnasium v5 reward
@@ -26,7 +27,12 @@ Three commands, each writing under `--results` (default `experiments/results/mo_
   `PGMORL_MAPPING`), expected utility, the non-dominated count, the forward end's mean
   speed against the reference's, wall times, and the published numbers of
   `<results>/published.json` beside them (each with its source and how its definitions
-  and budget differ). No number is typed here: all are read from those files.
+  and budget differ). Where a task has both scalarizations' fronts on 3 or more seeds
+  (`<env>/<S>/` and `<env>/seed<N>/<S>/`), `seeds` sets them side by side (`compare_seeds`):
+  each seed's hypervolume under both conventions, and a winner only where the two
+  scalarizations' seed ranges do not overlap; per preference, each objective's mean
+  return over the seeds, to say where on the front they differ. No number is typed
+  here: all are read from those files.
 
 Nothing is replaced by accident: `fronts` refuses a non-empty `<env>/<S>/` unless
 `--resume` (the sweep continues it; a finished one is read, not rerun) or `--overwrite`
@@ -127,10 +133,18 @@ def front_flags(out: str, resume: bool, overwrite: bool) -> list[str]:
     refuse(f"{out!r} is not empty (--resume continues it, --overwrite replaces it)")
 
 
+def front_dir(results: str, env: str, scalarization: str, seed: int = 0) -> str:
+    """Where a front lives: `<env>/<S>` for seed 0 (the table's), `<env>/seed<N>/<S>`
+    for another seed."""
+    if seed == 0:
+        return os.path.join(results, env, scalarization)
+    return os.path.join(results, env, f"seed{seed}", scalarization)
+
+
 def run_fronts(envs, results: str, seed: int, smoke: bool, resume=False, overwrite=False) -> int:
     if resume and overwrite:
         refuse(f"--results {results!r}: --resume continues and --overwrite replaces: give one")
-    outs = {(e, s): os.path.join(results, e, s) for e in envs for s in SCALARIZATIONS}
+    outs = {(e, s): front_dir(results, e, s, seed) for e in envs for s in SCALARIZATIONS}
     # every front checked before the first is trained
     flags = {k: front_flags(out, resume, overwrite) for k, out in outs.items()}
     for env in envs:
@@ -266,6 +280,68 @@ def summarize_front(env: str, front: dict, reference: dict | None) -> dict:
     return row
 
 
+MIN_SEEDS = 3
+
+
+def _seeds(results: str, env: str) -> list[int]:
+    """The seeds with both scalarizations' fronts under `<results>/<env>`."""
+    task = os.path.join(results, env)
+    found = [0] + sorted(
+        int(name[4:])
+        for name in os.listdir(task)
+        if name.startswith("seed") and name[4:].isdigit() and int(name[4:]) != 0
+    )
+    return [
+        seed
+        for seed in found
+        if all(
+            os.path.exists(os.path.join(front_dir(results, env, s, seed), "front.json"))
+            for s in SCALARIZATIONS
+        )
+    ]
+
+
+def compare_seeds(results: str, env: str) -> dict | None:
+    """smooth_wc against linear on one task over the seeds with both fronts (None below
+    `MIN_SEEDS`): per convention each seed's hypervolume, the mean, and the winner when
+    the two seed ranges do not overlap (None where they do: the difference is within
+    the seed-to-seed spread); per preference, each objective's mean undiscounted return
+    over the seeds, and the forward end's mean speed."""
+    import numpy as np
+
+    seeds = _seeds(results, env)
+    if len(seeds) < MIN_SEEDS:
+        return None
+    fronts = {
+        s: [_load(os.path.join(front_dir(results, env, s, seed), "front.json")) for seed in seeds]
+        for s in SCALARIZATIONS
+    }
+    prefs = [row["pref"] for row in fronts[SCALARIZATIONS[0]][0]["prefs"]]
+    for s in SCALARIZATIONS:
+        for seed, front in zip(seeds, fronts[s], strict=True):
+            if [row["pref"] for row in front["prefs"]] != prefs:
+                raise ValueError(f"{env} {s} seed {seed}: other preferences than seed {seeds[0]}'s")
+    rows = {s: [summarize_front(env, f, None) for f in fronts[s]] for s in SCALARIZATIONS}
+
+    def side_by_side(key: str) -> dict:
+        entry = {s: [r[key] for r in rows[s]] for s in SCALARIZATIONS}
+        entry["mean"] = {s: float(np.mean(entry[s])) for s in SCALARIZATIONS}
+        (a, b), (name_a, name_b) = (entry[s] for s in SCALARIZATIONS), SCALARIZATIONS
+        entry["winner"] = name_a if min(a) > max(b) else name_b if min(b) > max(a) else None
+        return entry
+
+    return {
+        "seeds": seeds,
+        "prefs": prefs,
+        "hypervolume": {k: side_by_side(k) for k in ("hv_morl_baselines", "hv_pgmorl")},
+        "forward_speed": side_by_side("forward_end_mean_x_velocity"),
+        "mean_return": {
+            s: np.mean([[row["return"] for row in f["prefs"]] for f in fronts[s]], axis=0).tolist()
+            for s in SCALARIZATIONS
+        },
+    }
+
+
 def summarize(results: str) -> dict:
     """Every task's rows (one per scalarization found) and the published numbers."""
     rows = []
@@ -276,6 +352,8 @@ def summarize(results: str) -> dict:
             if front is not None:
                 rows.append(summarize_front(env, front, reference))
     published = _load(os.path.join(results, "published.json")) or []
+    envs = sorted({row["env"] for row in rows})
+    seeds = {env: c for env in envs if (c := compare_seeds(results, env)) is not None}
     return {
         "conventions": {
             "hv_morl_baselines": f"discounted returns (gamma {MORL_BASELINES_GAMMA}), "
@@ -285,6 +363,7 @@ def summarize(results: str) -> dict:
         },
         "pgmorl_mapping": {env: note for env, (_, note) in PGMORL_MAPPING.items()},
         "rows": rows,
+        "seeds": seeds,
         "published": published,
     }
 
@@ -295,6 +374,44 @@ def _fmt(x, spec: str = ".4g") -> str:
     if isinstance(x, list):
         return "(" + ", ".join(_fmt(v, ".3g") for v in x) + ")"
     return format(x, spec)
+
+
+def seed_lines(seeds: dict) -> list[str]:
+    """table.md's section of `compare_seeds`, task by task."""
+    names = {"hv_morl_baselines": "HV (morl-baselines)", "hv_pgmorl": "HV (PGMORL)"}
+    lines = ["", "## smooth_wc against linear over seeds", ""]
+    if not seeds:
+        return lines + [f"No task has both fronts on {MIN_SEEDS} or more seeds yet."]
+    lines += [
+        "Each seed's front at the task's default; a winner only where the two seed ranges "
+        "do not overlap (otherwise: within the seed-to-seed spread).",
+    ]
+    a, b = SCALARIZATIONS
+    for env, c in seeds.items():
+        lines += [
+            "",
+            f"### {env} (seeds {', '.join(map(str, c['seeds']))})",
+            "",
+            f"| measure | {a}, per seed | {a}, mean | {b}, per seed | {b}, mean | winner |",
+            "|---|---|---|---|---|---|",
+        ]
+        entries = [(names[k], e) for k, e in c["hypervolume"].items()]
+        for name, e in entries + [("forward end's speed (m/s)", c["forward_speed"])]:
+            lines.append(
+                f"| {name} | {', '.join(_fmt(v) for v in e[a])} | {_fmt(e['mean'][a])} "
+                f"| {', '.join(_fmt(v) for v in e[b])} | {_fmt(e['mean'][b])} "
+                f"| {e['winner'] or 'within the spread'} |"
+            )
+        lines += [
+            "",
+            "Mean undiscounted return over the seeds, per preference:",
+            "",
+            f"| preference | {a} | {b} |",
+            "|---|---|---|",
+        ]
+        for pref, ra, rb in zip(c["prefs"], c["mean_return"][a], c["mean_return"][b], strict=True):
+            lines.append(f"| {_fmt(pref)} | {_fmt(ra)} | {_fmt(rb)} |")
+    return lines
 
 
 def write_table(summary: dict, results: str) -> None:
@@ -329,6 +446,7 @@ def write_table(summary: dict, results: str) -> None:
         )
     lines += ["", "PGMORL's objectives against v5's:", ""]
     lines += [f"- {env}: {note}" for env, note in summary["pgmorl_mapping"].items()]
+    lines += seed_lines(summary["seeds"])
     lines += ["", "## Published numbers", ""]
     if summary["published"]:
         lines += [

@@ -6,6 +6,7 @@ import os
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(__file__)), "experiments"))
@@ -177,3 +178,54 @@ def test_fronts_continue_or_replace_what_is_there(results, monkeypatch):
         assert envs == ["halfcheetah", "halfcheetah", "hopper", "hopper"]
         assert [cmd[-1] == flag for cmd in ran] == [True, True, False, False]
         assert not any({"--resume", "--overwrite"} & set(cmd) for cmd in ran[2:])
+
+
+def _seeded(tmp_path, forward_ends):
+    """halfcheetah fronts of both scalarizations on seeds 0, 1, 2: the forward end's
+    discounted forward return per (scalarization, seed), everything else equal."""
+    for scal, ends in forward_ends.items():
+        for seed, end in enumerate(ends):
+            out = mo_mujoco.front_dir(str(tmp_path), "halfcheetah", scal, seed)
+            os.makedirs(out)
+            front = _front(scal, [[2 * end, -50], [10, -5]], [[end, -20], [5, -2]], [end / 25, 0.1])
+            with open(os.path.join(out, "front.json"), "w") as f:
+                json.dump(front, f)
+    return str(tmp_path)
+
+
+def test_seeds_live_beside_seed_zero(tmp_path):
+    assert mo_mujoco.front_dir("r", "ant", "linear") == os.path.join("r", "ant", "linear")
+    assert mo_mujoco.front_dir("r", "ant", "linear", 2) == os.path.join(
+        "r", "ant", "seed2", "linear"
+    )
+
+
+def test_seed_comparison_by_hand(tmp_path):
+    results = _seeded(tmp_path, {"smooth_wc": [50, 60, 55], "linear": [20, 30, 45]})
+    c = mo_mujoco.summarize(results)["seeds"]["halfcheetah"]
+    assert c["seeds"] == [0, 1, 2]
+    hv = c["hypervolume"]["hv_morl_baselines"]
+    # (end, -20), (5, -2) from (-100, -100): (end + 100) * 80 + 105 * 18
+    assert hv["smooth_wc"] == pytest.approx([150 * 80 + 1890, 160 * 80 + 1890, 155 * 80 + 1890])
+    assert hv["linear"] == pytest.approx([120 * 80 + 1890, 130 * 80 + 1890, 145 * 80 + 1890])
+    assert hv["mean"]["linear"] == pytest.approx(np.mean([120, 130, 145]) * 80 + 1890)
+    # smooth_wc's worst seed (150) above linear's best (145)
+    assert hv["winner"] == "smooth_wc"
+    assert c["forward_speed"]["smooth_wc"] == pytest.approx([2.0, 2.4, 2.2])
+    # undiscounted forward returns 2 * end: smooth_wc's mean 110, linear's 63.33
+    assert c["mean_return"]["smooth_wc"][0] == pytest.approx([110, -50])
+    assert c["mean_return"]["linear"][0] == pytest.approx([190 / 3, -50])
+    assert c["mean_return"]["linear"][1] == pytest.approx([10, -5])
+
+
+def test_overlapping_seeds_name_no_winner_and_two_seeds_no_comparison(tmp_path):
+    results = _seeded(tmp_path, {"smooth_wc": [50, 60, 40], "linear": [20, 30, 45]})
+    summary = mo_mujoco.summarize(results)
+    for entry in summary["seeds"]["halfcheetah"]["hypervolume"].values():
+        assert entry["winner"] is None  # linear's 45 above smooth_wc's 40
+    mo_mujoco.write_table(summary, results)
+    md = open(os.path.join(results, "table.md")).read()
+    assert "### halfcheetah (seeds 0, 1, 2)" in md and "| within the spread |" in md
+    # seed 2 of linear removed: two seeds with both fronts, no comparison
+    os.remove(os.path.join(mo_mujoco.front_dir(results, "halfcheetah", "linear", 2), "front.json"))
+    assert mo_mujoco.summarize(results)["seeds"] == {}
