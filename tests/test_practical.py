@@ -90,6 +90,29 @@ def test_advantage_normalisation_by_hand():
     np.testing.assert_allclose(out, [-1.0, 1.0], rtol=1e-6)
 
 
+def test_at_a_corner_every_direction_is_the_same_update():
+    """At p = [1, 0] smooth_wc's coefficients are (lambda_1 sigma_1, 0) and linear's
+    (sigma_1, 0): the minibatch normalisation removes the positive factor, so the two
+    surrogates' advantages agree up to rounding (any difference between such runs is the
+    run-to-run spread, not the direction)."""
+    from wcac_jax import scalarize
+
+    adv = jnp.array([[1.0, 5.0], [3.0, -2.0], [-1.0, 0.5], [2.0, 7.0]])  # [B, m]
+    sigma, pref = jnp.array([4.0, 9.0]), jnp.array([1.0, 0.0])
+    j_hat, z = jnp.array([10.0, -3.0]), jnp.array([11.0, 2.0])
+    weights = {
+        "smooth_wc": scalarize.smooth_wc_weights(j_hat, pref, z, 1.0),
+        "linear": scalarize.linear_weights(j_hat, pref),
+    }
+    # softmax([1 * 1, 0 * 5]) = (e / (e + 1), 1 / (e + 1)): a positive factor on A_1
+    np.testing.assert_allclose(weights["smooth_wc"][0], math.e / (math.e + 1), rtol=1e-6)
+    # A_1 = (1, 3, -1, 2): mean 1.25, std sqrt(2.1875)
+    expected = (np.array([1.0, 3.0, -1.0, 2.0]) - 1.25) / np.sqrt(2.1875)
+    for w in weights.values():
+        coeff = scalarize.augmented_coefficients(w, pref, 0.0) * sigma
+        np.testing.assert_allclose(practical.normalize_advantages(adv @ coeff), expected, rtol=1e-5)
+
+
 def _constant_net(name: str):
     """A `networks.Network` whose output is its one parameter `name`, at every input."""
     return networks.Network(
