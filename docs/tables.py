@@ -1191,6 +1191,22 @@ def t_mo_mujoco_seeds(doc: Doc) -> str:
     return md([*head, "winner"], rows, "lllrrl")
 
 
+def t_mo_mujoco_seed_prefs(doc: Doc) -> str:
+    """Where on the front the two directions differ: per task with seeds and per
+    preference, each direction's mean undiscounted return over the seeds."""
+    path = f"{R['mo_mujoco']}/table.json"
+    rows = []
+    for env, c in load(path)["seeds"].items():
+        means = c["mean_return"]
+        for i, pref in enumerate(c["prefs"]):
+            cells = [
+                "(" + ", ".join(num(v) for v in means[s][i]) + ")" for s in ("smooth_wc", "linear")
+            ]
+            rows.append([doc.link(f"`{env}`", path), pref_str(pref), *cells])
+    head = ["task", "preference", "smooth_wc mean return", "linear mean return"]
+    return md(head, rows, "llrr")
+
+
 def t_conditioned_cost(doc: Doc) -> str:
     """The cost of more front points: seed 0's network evaluated at P preferences (its
     training once, plus each evaluation) against P independent 1M-step policies, whose
@@ -1315,6 +1331,7 @@ TABLES: dict[str, Callable[[Doc], str]] = {
     "mo_mujoco": t_mo_mujoco,
     "mo_mujoco_published": t_mo_mujoco_published,
     "mo_mujoco_seeds": t_mo_mujoco_seeds,
+    "mo_mujoco_seed_prefs": t_mo_mujoco_seed_prefs,
     "kuairand_paper_scale_unified": lambda doc: t_kuairand_unified(doc, "kuairand_paper_scale"),
     "kuairand_headroom": t_kuairand_headroom,
     "kuairand_fig2": t_kuairand_fig2,
