@@ -1177,13 +1177,13 @@ def t_mo_mujoco_seeds(doc: Doc) -> str:
     rows = []
     for env, c in load(path)["seeds"].items():
         entries = {**c["hypervolume"], "forward": c["forward_speed"]}
+        seeds = ", ".join(map(str, c["seeds"]))
         for key, e in entries.items():
             name, fmt = names[key]
             cells = [
                 f"{fmt(e['mean'][s])} [{fmt(min(e[s]))}, {fmt(max(e[s]))}]"
                 for s in ("smooth_wc", "linear")
             ]
-            seeds = ", ".join(map(str, c["seeds"]))
             rows.append(
                 [doc.link(f"`{env}`", path), seeds, name, *cells, e["winner"] or "within spread"]
             )

@@ -46,6 +46,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import re
 import subprocess
 import sys
 import time
@@ -285,15 +286,11 @@ MIN_SEEDS = 3
 
 def _seeds(results: str, env: str) -> list[int]:
     """The seeds with both scalarizations' fronts under `<results>/<env>`."""
-    task = os.path.join(results, env)
-    found = [0] + sorted(
-        int(name[4:])
-        for name in os.listdir(task)
-        if name.startswith("seed") and name[4:].isdigit() and int(name[4:]) != 0
-    )
+    names = os.listdir(os.path.join(results, env))
+    found = {0} | {int(name[4:]) for name in names if re.fullmatch(r"seed\d+", name)}
     return [
         seed
-        for seed in found
+        for seed in sorted(found)
         if all(
             os.path.exists(os.path.join(front_dir(results, env, s, seed), "front.json"))
             for s in SCALARIZATIONS
