@@ -184,7 +184,11 @@ def _reference_step(method, cfg, act, critic_apply, state, new, batch, pref, obj
             return jnp.mean(jnp.square((a - batch["action"]) / 3.0))
 
         d = jax.tree.map(lambda a, b: a + cfg.bc_weight * b, d, jax.grad(bc_loss)(theta))
-    return critic_step, w, _adam_first_step(d, cfg.actor_lr)
+    # each network class's actor at its own step size (the defaults differ tenfold)
+    dnn, linear = cfg.actor_lr, cfg.linear_actor_lr
+    lr = {"wcac": dnn, "pdpg": dnn, "moac": linear, "mocha": linear}[method]
+    assert cfg.actor_lr != cfg.linear_actor_lr
+    return critic_step, w, _adam_first_step(d, lr)
 
 
 @pytest.mark.parametrize("bc_weight", [1.0, 0.0])
