@@ -22,6 +22,8 @@ import sys
 from collections.abc import Callable
 from functools import cache
 
+import numpy as np
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 RES = "experiments/results"
 
@@ -1377,6 +1379,56 @@ def _end_action(doc: Doc, key: str, methods: tuple[str, ...]) -> str:
     return doc.link(f"about {num(sum(ends) / len(ends))}", path)
 
 
+def _quarters(doc: Doc, key: str):
+    """Per actor-critic, its curves' third and last quarters: `{method: (a3, a4, a0, l3,
+    l4)}`, the mean action's level in each quarter and at the start `[sets, seeds]`, and
+    the critic loss's level in each quarter over every data set and seed."""
+    sets = load(f"{R[key]}/curves.json")["data_sets"]
+    out = {}
+    for m in sets[0]:
+        a = np.array([ds[m]["mean_action"] for ds in sets])  # [sets, seeds, points]
+        loss = np.array([ds[m]["critic_loss"] for ds in sets])
+        q = a.shape[-1] // 4
+        out[m] = (
+            a[..., 2 * q : 3 * q].mean(-1),
+            a[..., 3 * q :].mean(-1),
+            a[..., 0],
+            loss[..., 2 * q : 3 * q].mean(),
+            loss[..., 3 * q :].mean(),
+        )
+    return out
+
+
+def v_kuairand_action_levels(doc: Doc) -> str:
+    """How far each actor's mean action still moves between the last two quarters of the
+    steps, against how far it moved from its start."""
+    q = _quarters(doc, "kuairand")
+    late = max(float(np.abs(a4 - a3).max()) for a3, a4, *_ in q.values())
+    moved = min(float(np.abs(a4 - a0).min()) for _, a4, a0, *_ in q.values())
+    return doc.link(
+        f"at most {num(late, 1)} index units, against a move of at least {num(moved)} from "
+        "its initial index",
+        f"{R['kuairand']}/curves.json",
+    )
+
+
+def v_kuairand_loss_levels(doc: Doc) -> str:
+    """The largest relative change of a method's mean critic loss between the last two
+    quarters of the steps."""
+    q = _quarters(doc, "kuairand")
+    change = max(abs(l4 - l3) / l3 for *_, l3, l4 in q.values())
+    return doc.link(f"at most {num(100 * change)}%", f"{R['kuairand']}/curves.json")
+
+
+def v_kuairand_wall(doc: Doc) -> str:
+    """The default experiment's wall time, as one process."""
+    path = f"{R['kuairand']}/run.json"
+    info = load(path)
+    if info.get("merged_parts", True):
+        raise ValueError(f"{path}: trained in --part processes; its total is no one wall time")
+    return doc.link(f"{num(info['seconds']['total'] / 60)} minutes", path)
+
+
 def v_kuairand_no_bc_ddpg_action(doc: Doc) -> str:
     return _end_action(doc, "kuairand_no_bc", ("moac", "mocha", "pdpg", "wcac"))
 
@@ -1392,6 +1444,9 @@ VALUES: dict[str, Callable[[Doc], str]] = {
     "kuairand_no_bc_alg1_gap": v_kuairand_no_bc_alg1_gap,
     "kuairand_no_bc_ddpg_action": v_kuairand_no_bc_ddpg_action,
     "kuairand_no_bc_alg1_action": v_kuairand_no_bc_alg1_action,
+    "kuairand_action_levels": v_kuairand_action_levels,
+    "kuairand_loss_levels": v_kuairand_loss_levels,
+    "kuairand_wall": v_kuairand_wall,
     "default_wall_range": v_default_wall_range,
     "selection_ge7": v_selection_ge7,
 }

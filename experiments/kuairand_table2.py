@@ -29,8 +29,10 @@ objective under that model. Writes to `OUT`:
 - `table.md`: the Table 2 analogue; `fig2.png`, `fig2.json`: the Fig. 2 analogue;
 - `curves.json`: per data set, method and seed, the critic loss and mean action in 40
   windows of the training steps;
-- `run.json`: configuration, sizes, wall-clock and CPU seconds, peak memory (`max_rss_gib`:
-  each process that trained a data set, then the one that wrote the table).
+- `run.json`: configuration, sizes, wall-clock and CPU seconds (`merged_parts`: whether
+  the data sets were trained by `--part` processes, whose seconds `total` adds), peak
+  memory (`max_rss_gib`: each process that trained a data set, then the one that wrote
+  the table).
 
 `OUT` must be new or empty unless `--overwrite` is given; then it is replaced whole (no
 file of the previous results is kept). The results are written into a new directory
@@ -59,7 +61,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from wcac_jax.outputs import unwritable_dir
+from wcac_jax.outputs import unwritable_dir, write_atomic
 from wcac_jax.recsys import alg1, offline, stats
 from wcac_jax.recsys import ncis as ncis_lib
 from wcac_jax.recsys.cli import ArgumentParser
@@ -543,6 +545,9 @@ def run(
         "alg1_config": asdict(acfg),
         "seed": seed,
         "seconds": {"per_data_set": [p["times"] for p in parts], "total": round(total, 1)},
+        # True: the data sets were trained in other processes (`--part`) and merged here,
+        # so `total` adds times measured elsewhere; False: `total` is this one process's
+        "merged_parts": merged,
         # CPU seconds of the processes: with other jobs on the machine, wall time
         # overstates what the run itself needs
         "cpu_seconds": [p["cpu_seconds"] for p in parts],
@@ -657,7 +662,8 @@ def main(argv=None) -> int:
         "--part",
         type=int,
         default=None,
-        help="train data set PART of --data only and save its scores to OUT (a file)",
+        help="train data set PART of --data only and save its scores to OUT, a file (new, "
+        "unless --overwrite)",
     )
     parser.add_argument(
         "--merge", nargs="+", default=None, help="make the table from --part files, in order"
@@ -677,7 +683,17 @@ def main(argv=None) -> int:
             cfg = replace(cfg, bc_weight=args.bc_weight)
         if args.seeds < 1:
             raise ValueError(f"--seeds must be >= 1, got {args.seeds}")
-        problem = unwritable_dir(args.out)
+        if args.part is not None:  # --out is the part's file
+            if not 0 <= args.part < len(args.data):
+                n = len(args.data)
+                raise ValueError(f"--part {args.part} is not an index of the {n} --data")
+            if os.path.isdir(args.out):
+                raise ValueError(f"--out {args.out!r} is a directory; --part writes a file")
+            if os.path.lexists(args.out) and not args.overwrite:
+                raise ValueError(f"--out {args.out!r} exists; pass --overwrite to replace it")
+            problem = unwritable_dir(os.path.dirname(os.path.abspath(args.out)))
+        else:
+            problem = unwritable_dir(args.out)
         if problem:
             raise ValueError(f"--out {args.out!r} can't be written: {problem}")
         held = sorted(os.listdir(args.out)) if os.path.isdir(args.out) else []
@@ -703,8 +719,8 @@ def main(argv=None) -> int:
                 print,
                 args.protocol,
             )
-            with open(args.out, "wb") as f:
-                pickle.dump(part, f)
+            os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
+            write_atomic(args.out, pickle.dumps(part))
             return 0
         parts = None
         if args.merge is not None:

@@ -109,6 +109,7 @@ def test_markdown_figure_curves_and_run_record(run):
     assert info["data_sets"][0]["state_dim"] == 1044 and info["synthetic"] is True
     # the whole run's seconds, each counted once: no more than the call's wall time
     assert 0 < info["seconds"]["total"] <= WALL["run"]
+    assert info["merged_parts"] is False  # one process: its total is its own wall time
     # one data set trained here, and this process: its peak memory, above what numpy
     # and jax alone take and far below the machine's
     assert len(info["max_rss_gib"]) == 2 and 0.1 < info["max_rss_gib"][-1] < 24
@@ -117,6 +118,30 @@ def test_markdown_figure_curves_and_run_record(run):
         c = curves["data_sets"][0][method]
         assert np.array(c["critic_loss"]).shape[0] == 2  # one curve per seed
         assert np.isfinite(np.array(c["mean_action"])).all()
+
+
+def test_parts_merged_give_the_one_process_table(tmp_path, capsys, run):
+    """`--part 0` in its own call, then `--merge` of its file: the same table, figure
+    data and curves as the fixture's one-process run of the same data, seed and seeds;
+    an existing part file is kept unless `--overwrite`, and a part index outside
+    `--data` is refused."""
+    data_dir, out = run
+    part, merged = tmp_path / "parts" / "p0.pkl", tmp_path / "merged"
+    quick = ["--data", data_dir, "--quick", "--seeds", "2"]
+    assert kuairand_table2.main([*quick, "--part", "0", "--out", str(part)]) == 0
+    before = part.read_bytes()
+    capsys.readouterr()
+    assert kuairand_table2.main([*quick, "--part", "0", "--out", str(part)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "exists" in err[0] and part.read_bytes() == before
+    assert kuairand_table2.main([*quick, "--part", "1", "--out", str(tmp_path / "p1")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--part 1" in err[0] and not (tmp_path / "p1").exists()
+    assert kuairand_table2.main([*quick, "--merge", str(part), "--out", str(merged)]) == 0
+    for name in ("table.json", "table.md", "fig2.json", "curves.json"):
+        assert (merged / name).read_text() == open(os.path.join(out, name)).read(), name
+    info = json.load(open(merged / "run.json"))
+    assert info["merged_parts"] is True
 
 
 def test_bad_input_one_line_exit_2_nothing_written(tmp_path, capsys, run):
