@@ -1420,6 +1420,35 @@ def v_kuairand_loss_levels(doc: Doc) -> str:
     return doc.link(f"at most {num(100 * change)}%", f"{R['kuairand']}/curves.json")
 
 
+SIGNAL_NAMES = {"hate": "dislike", "watch_time": "watch time"}
+
+
+def _kuairand_events(doc: Doc) -> tuple[dict, int, str]:
+    path = f"{R['kuairand']}/table.json"
+    t = load(path)
+    return t["ncis_events"], t["min_ncis_events"], path
+
+
+def _and(words: list[str]) -> str:
+    return words[0] if len(words) == 1 else ", ".join(words[:-1]) + " and " + words[-1]
+
+
+def v_kuairand_ncis_judged(doc: Doc) -> str:
+    """The signals NCIS can judge: enough logged events among the test rows (watch time
+    is a duration, logged on every row)."""
+    events, least, path = _kuairand_events(doc)
+    names = [SIGNAL_NAMES.get(s, s) for s, n in events.items() if n >= least]
+    return doc.link(_and(names + ["watch time"]), path)
+
+
+def v_kuairand_ncis_few(doc: Doc) -> str:
+    """The signals NCIS cannot judge, with their logged events among the test rows."""
+    events, least, path = _kuairand_events(doc)
+    few = [(SIGNAL_NAMES.get(s, s), n) for s, n in events.items() if n < least]
+    counts = _and([num(n) for _, n in few])
+    return doc.link(f"{_and([s for s, _ in few])} ({counts} logged events)", path)
+
+
 def v_kuairand_wall(doc: Doc) -> str:
     """The default experiment's wall time, as one process."""
     path = f"{R['kuairand']}/run.json"
@@ -1447,6 +1476,8 @@ VALUES: dict[str, Callable[[Doc], str]] = {
     "kuairand_action_levels": v_kuairand_action_levels,
     "kuairand_loss_levels": v_kuairand_loss_levels,
     "kuairand_wall": v_kuairand_wall,
+    "kuairand_ncis_judged": v_kuairand_ncis_judged,
+    "kuairand_ncis_few": v_kuairand_ncis_few,
     "default_wall_range": v_default_wall_range,
     "selection_ge7": v_selection_ge7,
 }
