@@ -48,6 +48,21 @@ def test_environment_defaults_without_flags():
     assert bandit.num_iterations == 600
 
 
+def test_ant_defaults_start_from_a_smaller_policy_noise():
+    """The ant tasks' default is the practical preset with initial log-std -1 (their
+    control cost under a unit Gaussian exceeds the healthy reward); the other MuJoCo
+    tasks keep the practical preset as it is."""
+    for name in ("ant", "ant-2obj"):
+        c = _config("--env", name)
+        assert c.train == PracticalConfig(log_std_init=-1.0).replace(
+            num_iterations=c.train.num_iterations
+        )
+        assert c.steps_per_pref == 1_000_000 and c.env_options == {"engine": "mujoco"}
+        assert _config("--env", name, "--log-std-init", "0").train.log_std_init == 0.0
+    hopper = _config("--env", "hopper")
+    assert hopper.train == PracticalConfig().replace(num_iterations=hopper.train.num_iterations)
+
+
 def test_walker2d_default_chooses_among_the_last_policies_when_they_fit(capsys):
     walker = _config("--env", "walker2d")
     assert (walker.select_last, walker.select_every) == (5, 20_480)
