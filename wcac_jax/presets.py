@@ -156,32 +156,23 @@ TABULAR = PaperConfig(
 ANT = PracticalConfig(log_std_init=-1.0)
 
 
-def _mo_gymnasium_task(name: str) -> Defaults:
-    """An MO-Gymnasium MuJoCo task's default: Walker2d's update and budget on MuJoCo's C
-    engine, its final policies; not tuned on the task itself (no front of it is
-    committed yet), and the note says so."""
-    return Defaults(
-        "practical",
-        PracticalConfig(),
-        1_000_000,
+def _mo_gymnasium_task(
+    name: str,
+    preset: str = "practical",
+    config: PracticalConfig | None = None,
+    what: str | None = None,
+) -> Defaults:
+    """An MO-Gymnasium MuJoCo task's default: `config` (by default Walker2d's update, not
+    tuned on the task, and the note says so) at 1M env steps per preference on MuJoCo's
+    C engine, its final policies; `what` is the note's account of a tuned `config`."""
+    note = (
         "the practical preset at 1M env steps per preference on MuJoCo's C engine, as "
-        f"Walker2d's; not yet tuned for {name}",
-        (("engine", "mujoco"),),
+        f"Walker2d's; not yet tuned for {name}"
+        if what is None
+        else what
     )
-
-
-def _ant_task(name: str) -> Defaults:
-    """An ant task's default: `ANT` (a smaller initial policy noise) at 1M env steps per
-    preference on MuJoCo's C engine."""
-    return Defaults(
-        "presets.ANT",
-        ANT,
-        1_000_000,
-        "the practical preset with initial log-std -1 at 1M env steps per preference on "
-        f"MuJoCo's C engine: {name}'s control cost under a unit Gaussian exceeds its "
-        "healthy reward, and its policies learn to fall",
-        (("engine", "mujoco"),),
-    )
+    config = PracticalConfig() if config is None else config
+    return Defaults(preset, config, 1_000_000, note, (("engine", "mujoco"),))
 
 
 ENV_DEFAULTS: dict[str, Defaults] = {
@@ -211,7 +202,17 @@ ENV_DEFAULTS: dict[str, Defaults] = {
             "humanoid",
         )
     },
-    **{name: _ant_task(name) for name in ("ant", "ant-2obj")},
+    **{
+        name: _mo_gymnasium_task(
+            name,
+            "presets.ANT",
+            ANT,
+            "the practical preset with initial log-std -1 at 1M env steps per preference "
+            f"on MuJoCo's C engine: {name}'s control cost under a unit Gaussian exceeds its "
+            "healthy reward, and its policies learn to fall",
+        )
+        for name in ("ant", "ant-2obj")
+    },
     "concave_bandit": Defaults(
         "presets.BANDIT",
         BANDIT,
