@@ -961,16 +961,20 @@ HEADS = ("Click↑", "Like↑ (e-2)", "Follow↑ (e-4)", "Comment↑ (e-3)", "Fo
 HEADS += ("Dislike↓ (e-4)", "WatchTime↑")
 
 
+def ncis_few(d: dict) -> dict:
+    """`{signal: logged events}` of the signals NCIS gives no verdict on: fewer logged
+    events among the test rows than `min_ncis_events` (`kuairand_table2.py`)."""
+    events = d.get("ncis_events", {})
+    return {s: n for s, n in events.items() if n < d["min_ncis_events"]}
+
+
 def kuairand(doc: Doc, key: str, kind: str) -> str:
     """Means over seeds and data sets; the change vs Behavior-Clone only where its 95%
     interval excludes 0 (else `n.s.`)."""
     path = f"{R[key]}/table.json"
     d = load(path)
     rel_key = "vs_bc" if kind == "ncis" else "truth_vs_bc"
-    # NCIS's verdicts only on signals with enough logged events (`kuairand_table2.py`)
-    few = {}
-    if kind == "ncis" and "ncis_events" in d:
-        few = {s: n for s, n in d["ncis_events"].items() if n < d["min_ncis_events"]}
+    few = ncis_few(d) if kind == "ncis" else {}
     rows = []
     for name, m in d["methods"].items():
         cells = []
@@ -1423,12 +1427,6 @@ def v_kuairand_loss_levels(doc: Doc) -> str:
 SIGNAL_NAMES = {"hate": "dislike", "watch_time": "watch time"}
 
 
-def _kuairand_events(doc: Doc) -> tuple[dict, int, str]:
-    path = f"{R['kuairand']}/table.json"
-    t = load(path)
-    return t["ncis_events"], t["min_ncis_events"], path
-
-
 def _and(words: list[str]) -> str:
     return words[0] if len(words) == 1 else ", ".join(words[:-1]) + " and " + words[-1]
 
@@ -1436,17 +1434,19 @@ def _and(words: list[str]) -> str:
 def v_kuairand_ncis_judged(doc: Doc) -> str:
     """The signals NCIS can judge: enough logged events among the test rows (watch time
     is a duration, logged on every row)."""
-    events, least, path = _kuairand_events(doc)
-    names = [SIGNAL_NAMES.get(s, s) for s, n in events.items() if n >= least]
+    path = f"{R['kuairand']}/table.json"
+    d = load(path)
+    few = ncis_few(d)
+    names = [SIGNAL_NAMES.get(s, s) for s in d["ncis_events"] if s not in few]
     return doc.link(_and(names + ["watch time"]), path)
 
 
 def v_kuairand_ncis_few(doc: Doc) -> str:
     """The signals NCIS cannot judge, with their logged events among the test rows."""
-    events, least, path = _kuairand_events(doc)
-    few = [(SIGNAL_NAMES.get(s, s), n) for s, n in events.items() if n < least]
-    counts = _and([num(n) for _, n in few])
-    return doc.link(f"{_and([s for s, _ in few])} ({counts} logged events)", path)
+    path = f"{R['kuairand']}/table.json"
+    few = ncis_few(load(path))
+    names = _and([SIGNAL_NAMES.get(s, s) for s in few])
+    return doc.link(f"{names} ({_and([num(n) for n in few.values()])} logged events)", path)
 
 
 def v_kuairand_wall(doc: Doc) -> str:
