@@ -5,7 +5,8 @@ them beside each other and beside the published numbers.
 Three commands, each writing under `--results` (default `experiments/results/mo_mujoco`):
 
 - `fronts`: for each task (`--envs`, default all), `python -m wcac_jax.sweep --env E
-  --scalarization S --seed N` for S in smooth_wc and linear, one compiled program each,
+  --scalarization S --seed N` for S in `--directions` (default smooth_wc and linear),
+  one compiled program each,
   into `<env>/<S>/` for seed 0 and `<env>/seed<N>/<S>/` for another seed (`front_dir`).
   `--smoke`: 3 preferences (the corners on 3 objectives), 20,480 env steps each, 1
   evaluation episode, to check the script end to end.
@@ -142,14 +143,22 @@ def front_dir(results: str, env: str, scalarization: str, seed: int = 0) -> str:
     return os.path.join(results, env, f"seed{seed}", scalarization)
 
 
-def run_fronts(envs, results: str, seed: int, smoke: bool, resume=False, overwrite=False) -> int:
+def run_fronts(
+    envs,
+    results: str,
+    seed: int,
+    smoke: bool,
+    resume=False,
+    overwrite=False,
+    directions=SCALARIZATIONS,
+) -> int:
     if resume and overwrite:
         refuse(f"--results {results!r}: --resume continues and --overwrite replaces: give one")
-    outs = {(e, s): front_dir(results, e, s, seed) for e in envs for s in SCALARIZATIONS}
+    outs = {(e, s): front_dir(results, e, s, seed) for e in envs for s in directions}
     # every front checked before the first is trained
     flags = {k: front_flags(out, resume, overwrite) for k, out in outs.items()}
     for env in envs:
-        for scal in SCALARIZATIONS:
+        for scal in directions:
             out = outs[env, scal]
             cmd = sweep_command(env, scal, out, seed, smoke, flags[env, scal])
             print("+", " ".join(cmd[1:]), flush=True)
@@ -476,6 +485,11 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("command", choices=("fronts", "ppo", "table"))
     parser.add_argument("--envs", default=",".join(SINGLE_OBJECTIVE), help="fronts: tasks")
+    parser.add_argument(
+        "--directions",
+        default=",".join(SCALARIZATIONS),
+        help="fronts: the scalarizations, comma-separated (default both)",
+    )
     parser.add_argument("--env", default=None, help="ppo: the task")
     parser.add_argument("--results", default=RESULTS, help="results directory")
     parser.add_argument("--seed", type=int, default=0)
@@ -496,7 +510,13 @@ def main(argv=None) -> int:
         unknown = [e for e in envs if e not in SINGLE_OBJECTIVE]
         if unknown:
             parser.error(f"unknown task(s) {unknown}; valid: {', '.join(SINGLE_OBJECTIVE)}")
-        return run_fronts(envs, args.results, args.seed, args.smoke, args.resume, args.overwrite)
+        directions = [d for d in args.directions.split(",") if d]
+        bad = [d for d in directions if d not in SCALARIZATIONS]
+        if bad or not directions:
+            parser.error(f"--directions {args.directions!r}: valid: {', '.join(SCALARIZATIONS)}")
+        return run_fronts(
+            envs, args.results, args.seed, args.smoke, args.resume, args.overwrite, directions
+        )
     if args.command == "ppo":
         if args.env not in SINGLE_OBJECTIVE:
             parser.error(f"ppo needs --env, one of {', '.join(SINGLE_OBJECTIVE)}")

@@ -116,6 +116,9 @@ def test_bad_commands_are_refused(capsys):
     with pytest.raises(SystemExit):
         mo_mujoco.main(["ppo"])
     assert "ppo needs --env" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        mo_mujoco.main(["fronts", "--envs", "hopper", "--directions", "smooth_wc,chebyshev"])
+    assert "--directions 'smooth_wc,chebyshev'" in capsys.readouterr().err
 
 
 def test_smoke_sweep_command():
@@ -178,6 +181,22 @@ def test_fronts_continue_or_replace_what_is_there(results, monkeypatch):
         assert envs == ["halfcheetah", "halfcheetah", "hopper", "hopper"]
         assert [cmd[-1] == flag for cmd in ran] == [True, True, False, False]
         assert not any({"--resume", "--overwrite"} & set(cmd) for cmd in ran[2:])
+
+
+def test_fronts_of_one_direction(tmp_path, monkeypatch):
+    """--directions runs only the fronts named, into their own directories."""
+    ran = []
+    monkeypatch.setattr(
+        mo_mujoco.subprocess,
+        "run",
+        lambda cmd, **k: ran.append(cmd) or subprocess.CompletedProcess(cmd, 0),
+    )
+    args = ["fronts", "--envs", "ant,hopper", "--directions", "linear", "--results", str(tmp_path)]
+    assert mo_mujoco.main(args) == 0
+    assert [(c[c.index("--env") + 1], c[c.index("--scalarization") + 1]) for c in ran] == [
+        ("ant", "linear"), ("hopper", "linear"),
+    ]  # fmt: skip
+    assert ran[0][ran[0].index("--out") + 1] == os.path.join(str(tmp_path), "ant", "linear")
 
 
 def _seeded(tmp_path, forward_ends):
