@@ -101,6 +101,7 @@ R = {
     "kuairand_no_bc": f"{RES}/kuairand_no_bc",
     "conditioned": f"{RES}/conditioned_walker2d",
     "mo_mujoco": f"{RES}/mo_mujoco",
+    "halfcheetah_forward_end": f"{RES}/halfcheetah_forward_end_practical_v5",
     "kuairand_paper_scale": f"{RES}/kuairand_paper_scale",
 }
 
@@ -1466,7 +1467,40 @@ def v_kuairand_no_bc_alg1_action(doc: Doc) -> str:
     return _end_action(doc, "kuairand_no_bc", ("alg1",))
 
 
+def _halfcheetah_ppo() -> tuple[str, float]:
+    path = f"{R['mo_mujoco']}/halfcheetah/reference_ppo.json"
+    return path, load(path)["mean_x_velocity"]
+
+
+def _halfcheetah_forward_end(doc: Doc, variant: str) -> str:
+    """The range of the `[1, 0]` runs' speeds at one initial log-std, and how many reach
+    0.8 x PPO's."""
+    path = f"{R['halfcheetah_forward_end']}/{variant}/front.json"
+    speeds = [p["mean_x_velocity"] for p in load(path)["prefs"]]
+    if any(p["pref"] != [1.0, 0.0] for p in load(path)["prefs"]):
+        raise ValueError(f"{path}: not every run is the forward end [1, 0]")
+    fast = sum(v >= 0.8 * _halfcheetah_ppo()[1] for v in speeds)
+    text = f"{num(min(speeds), 2)}–{num(max(speeds), 2)} m/s"
+    return doc.link(f"{text} ({fast} of {len(speeds)} at 0.8 × PPO's speed or more)", path)
+
+
+def v_halfcheetah_forward_end_ls0(doc: Doc) -> str:
+    return _halfcheetah_forward_end(doc, "logstd0")
+
+
+def v_halfcheetah_forward_end_ls1(doc: Doc) -> str:
+    return _halfcheetah_forward_end(doc, "logstd-1")
+
+
+def v_halfcheetah_ppo_speed(doc: Doc) -> str:
+    path, speed = _halfcheetah_ppo()
+    return doc.link(f"{num(speed, 2)} m/s", path)
+
+
 VALUES: dict[str, Callable[[Doc], str]] = {
+    "halfcheetah_forward_end_ls0": v_halfcheetah_forward_end_ls0,
+    "halfcheetah_forward_end_ls-1": v_halfcheetah_forward_end_ls1,
+    "halfcheetah_ppo_speed": v_halfcheetah_ppo_speed,
     "kuairand_training": v_kuairand_training,
     "kuairand_alg1_gap": v_kuairand_alg1_gap,
     "kuairand_no_bc_ddpg_gaps": v_kuairand_no_bc_ddpg_gaps,

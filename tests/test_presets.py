@@ -48,11 +48,12 @@ def test_environment_defaults_without_flags():
     assert bandit.num_iterations == 600
 
 
-def test_ant_defaults_start_from_a_smaller_policy_noise():
+def test_ant_and_halfcheetah_defaults_start_from_a_smaller_policy_noise():
     """The ant tasks' default is the practical preset with initial log-std -1 (their
-    control cost under a unit Gaussian exceeds the healthy reward); the other MuJoCo
-    tasks keep the practical preset as it is."""
-    for name in ("ant", "ant-2obj"):
+    control cost under a unit Gaussian exceeds the healthy reward), and HalfCheetah's (its
+    forward end finds the fast gait); the other MuJoCo tasks keep the practical preset as
+    it is."""
+    for name in ("ant", "ant-2obj", "halfcheetah"):
         c = _config("--env", name)
         assert c.train == PracticalConfig(log_std_init=-1.0).replace(
             num_iterations=c.train.num_iterations
