@@ -32,8 +32,10 @@ Three commands, each writing under `--results` (default `experiments/results/mo_
   (`<env>/<S>/` and `<env>/seed<N>/<S>/`), `seeds` sets them side by side (`compare_seeds`):
   each seed's hypervolume under both conventions, and a winner only where the two
   scalarizations' seed ranges do not overlap; per preference, each objective's mean
-  return over the seeds, to say where on the front they differ. No number is typed
-  here: all are read from those files.
+  return over the seeds, to say where on the front they differ. The seeds must share
+  one setting (their `config.json` but for seed and scalarization): a task whose seeds
+  were trained otherwise (a default changed in between) is refused, naming the fields.
+  No number is typed here: all are read from those files.
 
 Nothing is replaced by accident: `fronts` refuses a non-empty `<env>/<S>/` unless
 `--resume` (the sweep continues it; a finished one is read, not rerun) or `--overwrite`
@@ -307,6 +309,15 @@ def _seeds(results: str, env: str) -> list[int]:
     ]
 
 
+def _setting(front: dict) -> dict:
+    """What a front was trained with, flattened, but for its seed and scalarization
+    (empty for a front that does not record its configuration)."""
+    config = front.get("config", {})
+    flat = {k: v for k, v in config.items() if k not in ("train", "seed")}
+    flat |= {f"train.{k}": v for k, v in config.get("train", {}).items() if k != "scalarization"}
+    return flat
+
+
 def compare_seeds(results: str, env: str) -> dict | None:
     """smooth_wc against linear on one task over the seeds with both fronts (None below
     `MIN_SEEDS`): per convention each seed's hypervolume, the mean, and the winner when
@@ -323,10 +334,21 @@ def compare_seeds(results: str, env: str) -> dict | None:
         for s in SCALARIZATIONS
     }
     prefs = [row["pref"] for row in fronts[SCALARIZATIONS[0]][0]["prefs"]]
+    setting = _setting(fronts[SCALARIZATIONS[0]][0])
     for s in SCALARIZATIONS:
         for seed, front in zip(seeds, fronts[s], strict=True):
             if [row["pref"] for row in front["prefs"]] != prefs:
                 raise ValueError(f"{env} {s} seed {seed}: other preferences than seed {seeds[0]}'s")
+            if _setting(front) != setting:
+                diff = sorted(
+                    k
+                    for k in setting.keys() | _setting(front).keys()
+                    if setting.get(k) != _setting(front).get(k)
+                )
+                raise ValueError(
+                    f"{env} {s} seed {seed}: trained otherwise than {SCALARIZATIONS[0]} seed "
+                    f"{seeds[0]} ({', '.join(diff)}); the seeds compare one setting"
+                )
     rows = {s: [summarize_front(env, f, None) for f in fronts[s]] for s in SCALARIZATIONS}
 
     def side_by_side(key: str) -> dict:
@@ -530,7 +552,10 @@ def main(argv=None) -> int:
         if os.path.lexists(path) and not args.overwrite:
             refuse(f"{path!r} exists (--overwrite replaces it)")
     sys.path.insert(0, ROOT)
-    summary = summarize(args.results)
+    try:
+        summary = summarize(args.results)
+    except ValueError as e:  # fronts that cannot be set side by side: nothing written
+        refuse(str(e))
     write_table(summary, args.results)
     print(f"wrote {args.results}/table.md and table.json: {len(summary['rows'])} fronts")
     return 0

@@ -248,3 +248,23 @@ def test_overlapping_seeds_name_no_winner_and_two_seeds_no_comparison(tmp_path):
     # seed 2 of linear removed: two seeds with both fronts, no comparison
     os.remove(os.path.join(mo_mujoco.front_dir(results, "halfcheetah", "linear", 2), "front.json"))
     assert mo_mujoco.summarize(results)["seeds"] == {}
+
+
+def test_seeds_trained_otherwise_are_not_compared(tmp_path, capsys):
+    """A seed whose front was trained with another setting (here a default changed
+    between seeds) stops the comparison with a message naming what differs."""
+    results = _seeded(tmp_path, {"smooth_wc": [50, 60, 55], "linear": [20, 30, 45]})
+    path = os.path.join(mo_mujoco.front_dir(results, "halfcheetah", "linear", 2), "front.json")
+    front = json.load(open(path))
+    front["config"]["train"]["log_std_init"] = -1.0
+    with open(path, "w") as f:
+        json.dump(front, f)
+    with pytest.raises(ValueError, match=r"halfcheetah linear seed 2: .*\(train\.log_std_init\)"):
+        mo_mujoco.summarize(results)
+    # the command: one line, exit 2, no table written
+    with pytest.raises(SystemExit) as exc:
+        mo_mujoco.main(["table", "--results", results])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 1 and "train.log_std_init" in err[0]
+    assert not os.path.exists(os.path.join(results, "table.md"))
