@@ -168,18 +168,27 @@ def _mo_gymnasium_task(
     name: str,
     preset: str = "practical",
     config: PracticalConfig | None = None,
-    what: str | None = None,
+    why: str | None = None,
 ) -> Defaults:
-    """An MO-Gymnasium MuJoCo task's default: `config` (by default Walker2d's update, not
-    tuned on the task, and the note says so) at 1M env steps per preference on MuJoCo's
-    C engine, its final policies; `what` is the note's account of a tuned `config`."""
+    """An MO-Gymnasium MuJoCo task's default: `config` at 1M env steps per preference on
+    MuJoCo's C engine, its final policies. By default Walker2d's update, not tuned on the
+    task, and the note says so; a tuned `config` differs from it by its initial log-std,
+    which the note names, with `why`."""
+    if config is None:
+        return Defaults(
+            preset,
+            PracticalConfig(),
+            1_000_000,
+            "the practical preset at 1M env steps per preference on MuJoCo's C engine, as "
+            f"Walker2d's; not yet tuned for {name}",
+            (("engine", "mujoco"),),
+        )
+    if config != PracticalConfig(log_std_init=config.log_std_init):
+        raise ValueError(f"{name}: the note names only the initial log-std; say the rest")
     note = (
-        "the practical preset at 1M env steps per preference on MuJoCo's C engine, as "
-        f"Walker2d's; not yet tuned for {name}"
-        if what is None
-        else what
+        f"the practical preset with initial log-std {config.log_std_init:g} at 1M env steps "
+        f"per preference on MuJoCo's C engine: {why}"
     )
-    config = PracticalConfig() if config is None else config
     return Defaults(preset, config, 1_000_000, note, (("engine", "mujoco"),))
 
 
@@ -214,9 +223,8 @@ ENV_DEFAULTS: dict[str, Defaults] = {
             name,
             "presets.ANT",
             ANT,
-            "the practical preset with initial log-std -1 at 1M env steps per preference "
-            f"on MuJoCo's C engine: {name}'s control cost under a unit Gaussian exceeds its "
-            "healthy reward, and its policies learn to fall",
+            f"{name}'s control cost under a unit Gaussian exceeds its healthy reward, and "
+            "its policies learn to fall",
         )
         for name in ("ant", "ant-2obj")
     },
@@ -224,9 +232,8 @@ ENV_DEFAULTS: dict[str, Defaults] = {
         "halfcheetah",
         "presets.HALFCHEETAH",
         HALFCHEETAH,
-        "the practical preset with initial log-std -1 at 1M env steps per preference on "
-        "MuJoCo's C engine: at log-std 0 its forward end settles on a slow gait or a fast "
-        "one by chance; at -1 it finds the fast one",
+        "at log-std 0 its forward end settles on a slow gait or a fast one by chance; at -1 "
+        "it finds the fast one",
     ),
     "concave_bandit": Defaults(
         "presets.BANDIT",
