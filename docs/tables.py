@@ -1476,10 +1476,12 @@ def _halfcheetah_forward_end(doc: Doc, variant: str) -> str:
     """The range of the `[1, 0]` runs' speeds at one initial log-std, and how many reach
     0.8 x PPO's."""
     path = f"{R['halfcheetah_forward_end']}/{variant}/front.json"
-    speeds = [p["mean_x_velocity"] for p in load(path)["prefs"]]
-    if any(p["pref"] != [1.0, 0.0] for p in load(path)["prefs"]):
+    runs = load(path)["prefs"]
+    if any(p["pref"] != [1.0, 0.0] for p in runs):
         raise ValueError(f"{path}: not every run is the forward end [1, 0]")
-    fast = sum(v >= 0.8 * _halfcheetah_ppo()[1] for v in speeds)
+    speeds = [p["mean_x_velocity"] for p in runs]
+    _, ppo = _halfcheetah_ppo()
+    fast = sum(v >= 0.8 * ppo for v in speeds)
     text = f"{num(min(speeds), 2)}–{num(max(speeds), 2)} m/s"
     return doc.link(f"{text} ({fast} of {len(speeds)} at 0.8 × PPO's speed or more)", path)
 

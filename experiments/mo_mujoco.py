@@ -339,11 +339,9 @@ def compare_seeds(results: str, env: str) -> dict | None:
         for seed, front in zip(seeds, fronts[s], strict=True):
             if [row["pref"] for row in front["prefs"]] != prefs:
                 raise ValueError(f"{env} {s} seed {seed}: other preferences than seed {seeds[0]}'s")
-            if _setting(front) != setting:
+            if (own := _setting(front)) != setting:
                 diff = sorted(
-                    k
-                    for k in setting.keys() | _setting(front).keys()
-                    if setting.get(k) != _setting(front).get(k)
+                    k for k in setting.keys() | own.keys() if setting.get(k) != own.get(k)
                 )
                 raise ValueError(
                     f"{env} {s} seed {seed}: trained otherwise than {SCALARIZATIONS[0]} seed "
