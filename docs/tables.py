@@ -20,7 +20,7 @@ import os
 import re
 import sys
 from collections.abc import Callable
-from functools import cache
+from functools import cache, partial
 
 import numpy as np
 
@@ -101,7 +101,6 @@ R = {
     "kuairand_no_bc": f"{RES}/kuairand_no_bc",
     "conditioned": f"{RES}/conditioned_walker2d",
     "mo_mujoco": f"{RES}/mo_mujoco",
-    "halfcheetah_forward_end": f"{RES}/halfcheetah_forward_end_practical_v5",
     "kuairand_paper_scale": f"{RES}/kuairand_paper_scale",
 }
 
@@ -1467,42 +1466,38 @@ def v_kuairand_no_bc_alg1_action(doc: Doc) -> str:
     return _end_action(doc, "kuairand_no_bc", ("alg1",))
 
 
-def _halfcheetah_ppo() -> tuple[str, float]:
-    path = f"{R['mo_mujoco']}/halfcheetah/reference_ppo.json"
+def _ppo_speed(env: str) -> tuple[str, float]:
+    """A MuJoCo-suite task's PPO reference: its file and mean x velocity."""
+    path = f"{R['mo_mujoco']}/{env}/reference_ppo.json"
     return path, load(path)["mean_x_velocity"]
 
 
-def _halfcheetah_forward_end(doc: Doc, variant: str) -> str:
-    """The range of the `[1, 0]` runs' speeds at one initial log-std, and how many reach
-    0.8 x PPO's."""
-    path = f"{R['halfcheetah_forward_end']}/{variant}/front.json"
+def _forward_end(doc: Doc, env: str, variant: str) -> str:
+    """The range of a task's independent forward-end runs' speeds at one initial log-std
+    (`<env>_forward_end_practical_v5/<variant>`), and how many reach 0.8 x PPO's."""
+    path = f"{RES}/{env}_forward_end_practical_v5/{variant}/front.json"
     runs = load(path)["prefs"]
     if any(p["pref"] != [1.0, 0.0] for p in runs):
         raise ValueError(f"{path}: not every run is the forward end [1, 0]")
     speeds = [p["mean_x_velocity"] for p in runs]
-    _, ppo = _halfcheetah_ppo()
+    _, ppo = _ppo_speed(env)
     fast = sum(v >= 0.8 * ppo for v in speeds)
     text = f"{num(min(speeds), 2)}–{num(max(speeds), 2)} m/s"
     return doc.link(f"{text} ({fast} of {len(speeds)} at 0.8 × PPO's speed or more)", path)
 
 
-def v_halfcheetah_forward_end_ls0(doc: Doc) -> str:
-    return _halfcheetah_forward_end(doc, "logstd0")
-
-
-def v_halfcheetah_forward_end_ls1(doc: Doc) -> str:
-    return _halfcheetah_forward_end(doc, "logstd-1")
-
-
-def v_halfcheetah_ppo_speed(doc: Doc) -> str:
-    path, speed = _halfcheetah_ppo()
+def _ppo_speed_value(doc: Doc, env: str) -> str:
+    path, speed = _ppo_speed(env)
     return doc.link(f"{num(speed, 2)} m/s", path)
 
 
 VALUES: dict[str, Callable[[Doc], str]] = {
-    "halfcheetah_forward_end_ls0": v_halfcheetah_forward_end_ls0,
-    "halfcheetah_forward_end_ls-1": v_halfcheetah_forward_end_ls1,
-    "halfcheetah_ppo_speed": v_halfcheetah_ppo_speed,
+    **{
+        f"{env}_forward_end_ls{ls}": partial(_forward_end, env=env, variant=f"logstd{ls}")
+        for env in ("halfcheetah",)
+        for ls in ("0", "-1")
+    },
+    **{f"{env}_ppo_speed": partial(_ppo_speed_value, env=env) for env in ("halfcheetah",)},
     "kuairand_training": v_kuairand_training,
     "kuairand_alg1_gap": v_kuairand_alg1_gap,
     "kuairand_no_bc_ddpg_gaps": v_kuairand_no_bc_ddpg_gaps,
