@@ -1494,10 +1494,13 @@ def _ppo_speed_value(doc: Doc, env: str) -> str:
 VALUES: dict[str, Callable[[Doc], str]] = {
     **{
         f"{env}_forward_end_ls{ls}": partial(_forward_end, env=env, variant=f"logstd{ls}")
-        for env in ("halfcheetah",)
+        for env in ("halfcheetah", "humanoid")
         for ls in ("0", "-1")
     },
-    **{f"{env}_ppo_speed": partial(_ppo_speed_value, env=env) for env in ("halfcheetah",)},
+    **{
+        f"{env}_ppo_speed": partial(_ppo_speed_value, env=env)
+        for env in ("halfcheetah", "humanoid")
+    },
     "kuairand_training": v_kuairand_training,
     "kuairand_alg1_gap": v_kuairand_alg1_gap,
     "kuairand_no_bc_ddpg_gaps": v_kuairand_no_bc_ddpg_gaps,
