@@ -1491,16 +1491,16 @@ def _ppo_speed_value(doc: Doc, env: str) -> str:
     return doc.link(f"{num(speed, 2)} m/s", path)
 
 
+# the tasks whose forward end was probed at initial log-std 0 and -1
+FORWARD_END_PROBES = ("halfcheetah", "humanoid")
+
 VALUES: dict[str, Callable[[Doc], str]] = {
     **{
         f"{env}_forward_end_ls{ls}": partial(_forward_end, env=env, variant=f"logstd{ls}")
-        for env in ("halfcheetah", "humanoid")
+        for env in FORWARD_END_PROBES
         for ls in ("0", "-1")
     },
-    **{
-        f"{env}_ppo_speed": partial(_ppo_speed_value, env=env)
-        for env in ("halfcheetah", "humanoid")
-    },
+    **{f"{env}_ppo_speed": partial(_ppo_speed_value, env=env) for env in FORWARD_END_PROBES},
     "kuairand_training": v_kuairand_training,
     "kuairand_alg1_gap": v_kuairand_alg1_gap,
     "kuairand_no_bc_ddpg_gaps": v_kuairand_no_bc_ddpg_gaps,
