@@ -1491,6 +1491,36 @@ def _ppo_speed_value(doc: Doc, env: str) -> str:
     return doc.link(f"{num(speed, 2)} m/s", path)
 
 
+def v_mo_mujoco_thresholds(doc: Doc) -> str:
+    """The suite's two thresholds over every front of `table.json` (seed 0): the tasks,
+    whether each front's wall ratio is below 1 (one program beats P separate PPO runs by
+    1.5x) and each forward end reaches 0.8 x PPO's speed, naming every front that does not."""
+    path = f"{R['mo_mujoco']}/table.json"
+    rows = load(path)["rows"]
+    envs = list(dict.fromkeys(r["env"] for r in rows))
+
+    def misses(key: str, ok: Callable[[float], bool]) -> str:
+        bad = [r for r in rows if r.get(key) is None or not ok(r[key])]
+        if not bad:
+            return ""
+        kind = key.split("_")[0]
+        named = [
+            f"`{r['env']}`'s `{r['scalarization']}` ({kind} ratio {num(r.get(key), 2)})"
+            for r in bad
+        ]
+        return f" but {_and(named)}"
+
+    wall = misses("wall_ratio", lambda x: x < 1.0)
+    speed = misses("speed_ratio", lambda x: x >= 0.8)
+    text = (
+        f"on {_and([f'`{e}`' for e in envs])}, every front{wall} trains in one program in "
+        "under two thirds of the time of its separate single-objective PPO runs (wall "
+        f"ratio below 1), and every forward end{speed} runs at 0.8 × PPO's speed or faster "
+        "(speed ratio)"
+    )
+    return text
+
+
 # the tasks whose forward end was probed at initial log-std 0 and -1
 FORWARD_END_PROBES = ("halfcheetah", "humanoid")
 
@@ -1514,6 +1544,7 @@ VALUES: dict[str, Callable[[Doc], str]] = {
     "kuairand_ncis_few": v_kuairand_ncis_few,
     "default_wall_range": v_default_wall_range,
     "selection_ge7": v_selection_ge7,
+    "mo_mujoco_thresholds": v_mo_mujoco_thresholds,
 }
 
 BLOCK = re.compile(r"(<!-- table:([\w-]+) -->\n)(.*?)(<!-- /table -->)", re.S)

@@ -108,3 +108,30 @@ def test_every_relative_link_resolves(doc):
             if md.endswith(".md") and anchor not in _anchors(md):
                 bad.append(f"{target}: no heading #{anchor} in {md}")
     assert bad == [], f"{doc}: " + "; ".join(bad)
+
+
+def _suite_row(env, scalarization, wall_ratio, speed_ratio):
+    return dict(
+        env=env, scalarization=scalarization, wall_ratio=wall_ratio, speed_ratio=speed_ratio
+    )
+
+
+def test_the_suite_thresholds_sentence_names_every_front_that_misses(monkeypatch):
+    rows = [
+        _suite_row("hopper", "smooth_wc", 0.37, 0.94),
+        _suite_row("hopper", "linear", 0.38, 1.04),
+        _suite_row("humanoid", "smooth_wc", 0.55, 0.61),
+        _suite_row("humanoid", "linear", 1.02, None),
+    ]
+    monkeypatch.setattr(tables, "load", lambda path: {"rows": rows})
+    text = tables.v_mo_mujoco_thresholds(tables.Doc("README.md"))
+    assert text.startswith("on `hopper` and `humanoid`, every front but ")
+    assert "but `humanoid`'s `linear` (wall ratio 1.02) trains" in text
+    assert (
+        "every forward end but `humanoid`'s `smooth_wc` (speed ratio 0.61) and "
+        "`humanoid`'s `linear` (speed ratio –) runs at 0.8 × PPO's speed" in text
+    )
+    monkeypatch.setattr(tables, "load", lambda path: {"rows": rows[:2]})
+    text = tables.v_mo_mujoco_thresholds(tables.Doc("README.md"))
+    assert "but" not in text
+    assert "every forward end runs at 0.8 × PPO's speed or faster" in text
