@@ -1473,8 +1473,9 @@ def _ppo_speed(env: str) -> tuple[str, float]:
 
 
 def _forward_end(doc: Doc, env: str, variant: str) -> str:
-    """The range of a task's independent forward-end runs' speeds at one initial log-std
-    (`<env>_forward_end_practical_v5/<variant>`), and how many reach 0.8 x PPO's."""
+    """The range of a task's independent forward-end runs' speeds under one variant of its
+    configuration (`<env>_forward_end_practical_v5/<variant>`), and how many reach 0.8 x
+    PPO's."""
     path = f"{RES}/{env}_forward_end_practical_v5/{variant}/front.json"
     runs = load(path)["prefs"]
     if any(p["pref"] != [1.0, 0.0] for p in runs):
@@ -1521,14 +1522,19 @@ def v_mo_mujoco_thresholds(doc: Doc) -> str:
     return text
 
 
-# the tasks whose forward end was probed at initial log-std 0 and -1
-FORWARD_END_PROBES = ("halfcheetah", "humanoid")
+# the probes of a task's forward end: value name -> the variant's results directory
+# (initial log-std 0 and -1 on both; the humanoid also with PPO's 10 epochs of batches of 256)
+_LOG_STDS = {"ls0": "logstd0", "ls-1": "logstd-1"}
+FORWARD_END_PROBES = {
+    "halfcheetah": _LOG_STDS,
+    "humanoid": _LOG_STDS | {"epochs10": "epochs10"},
+}
 
 VALUES: dict[str, Callable[[Doc], str]] = {
     **{
-        f"{env}_forward_end_ls{ls}": partial(_forward_end, env=env, variant=f"logstd{ls}")
-        for env in FORWARD_END_PROBES
-        for ls in ("0", "-1")
+        f"{env}_forward_end_{name}": partial(_forward_end, env=env, variant=variant)
+        for env, variants in FORWARD_END_PROBES.items()
+        for name, variant in variants.items()
     },
     **{f"{env}_ppo_speed": partial(_ppo_speed_value, env=env) for env in FORWARD_END_PROBES},
     "kuairand_training": v_kuairand_training,
