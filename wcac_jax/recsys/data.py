@@ -1,5 +1,6 @@
 """Reads a KuaiRand directory (real files of any of KuaiRand's three layouts, or
-`synth`'s) and builds the offline transitions of the benchmark protocol (RECSYS.md §2).
+`synth`'s) and builds the offline transitions of the benchmark protocol (docs/recsys.md,
+"Protocol").
 
 - rows: the layout's first 04-08..04-21 standard log (`kuairand.Layout.log`; on
   KuaiRand-27K `log_standard_4_08_to_4_21_27k_part1.csv`), only the `n_candidates`

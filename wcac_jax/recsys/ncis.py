@@ -1,4 +1,5 @@
-"""Off-policy evaluation of the protocol (RECSYS.md §2): NCIS, and the ground truth.
+"""Off-policy evaluation of the protocol (docs/recsys.md, "Protocol"): NCIS, and the ground
+truth.
 
 NCIS (normalised capped importance sampling): target `pi` and behaviour `pi_b` are both
 Gaussians `N(action(s), sigma^2)` over the candidate index (`sigma = 25`); per logged
