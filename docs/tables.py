@@ -1527,7 +1527,7 @@ def v_mo_mujoco_thresholds(doc: Doc) -> str:
 _LOG_STDS = {"ls0": "logstd0", "ls-1": "logstd-1"}
 FORWARD_END_PROBES = {
     "halfcheetah": _LOG_STDS,
-    "humanoid": _LOG_STDS | {"epochs10": "epochs10"},
+    "humanoid": _LOG_STDS | {"e10x8": "e10x8"},
 }
 
 VALUES: dict[str, Callable[[Doc], str]] = {
