@@ -1522,6 +1522,16 @@ def v_mo_mujoco_thresholds(doc: Doc) -> str:
     return text
 
 
+def v_humanoid_ppo_seeds(doc: Doc) -> str:
+    """The humanoid's PPO reference speed on every seed run: `mo_mujoco`'s seed 0 and
+    `reference_ppo_humanoid_v5/seed<N>`."""
+    paths = [_ppo_speed("humanoid")[0]]
+    paths += sorted(glob.glob(f"{RES}/reference_ppo_humanoid_v5/seed*/reference_ppo.json"))
+    runs = sorted((load(p)["seed"], load(p)["mean_x_velocity"], p) for p in paths)
+    speeds = _and([doc.link(f"{num(v, 2)} m/s", p) for _, v, p in runs])
+    return f"{speeds} at seeds {_and([str(seed) for seed, _, _ in runs])}"
+
+
 # the probes of a task's forward end: value name -> the variant's results directory
 # (initial log-std 0 and -1 on both; the humanoid also with PPO's 10 epochs of batches of 256)
 _LOG_STDS = {"ls0": "logstd0", "ls-1": "logstd-1"}
@@ -1551,6 +1561,7 @@ VALUES: dict[str, Callable[[Doc], str]] = {
     "default_wall_range": v_default_wall_range,
     "selection_ge7": v_selection_ge7,
     "mo_mujoco_thresholds": v_mo_mujoco_thresholds,
+    "humanoid_ppo_seeds": v_humanoid_ppo_seeds,
 }
 
 BLOCK = re.compile(r"(<!-- table:([\w-]+) -->\n)(.*?)(<!-- /table -->)", re.S)
