@@ -34,7 +34,7 @@ The combination rules:
 - `wcac` (DNN, DDPG-style): smoothed weighted Chebyshev,
   `d = -sum_i lambda_i p_i grad J_i` with `lambda = softmax(p (J_ub - J) / mu)`
   (`scalarize.smooth_wc_weights`), in one backward pass;
-- `pdpg` (DNN): PDPG's idea as its paper describes it (its exact rule is not public):
+- `pdpg` (DNN): PDPG's idea (Chen et al., WWW 2021; its exact rule is not public):
   min-norm (MGDA) weights over the preference-scaled per-signal gradients
   (`actor.min_norm_weights`);
 - `moac` (linear actor): MOAC's idea (exact rule not reproduced): the same min-norm
