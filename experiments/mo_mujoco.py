@@ -257,7 +257,11 @@ def pgmorl_returns(env: str, front: dict):
 
 
 def summarize_front(env: str, front: dict, reference: dict | None) -> dict:
-    """One row of the table from a `front.json` (and the task's PPO reference)."""
+    """One row of the table from a `front.json` (and the task's PPO reference).
+
+    Raises:
+      ValueError: the reference ran another env-step budget than the front's per preference.
+    """
     import numpy as np
 
     from wcac_jax import pareto
@@ -282,6 +286,15 @@ def summarize_front(env: str, front: dict, reference: dict | None) -> dict:
         "wall_s": front["wall_s"],
     }
     if reference is not None:
+        # the same budget per policy: the front's as asked (its training rounds it up to
+        # whole iterations), the reference's as run
+        budget = front.get("config", {}).get("steps_per_pref", front["env_steps_per_pref"])
+        if reference["env_steps"] != budget:
+            raise ValueError(
+                f"{env} {row['scalarization']}: the front trains {budget:,} env steps per "
+                f"preference, its PPO reference {reference['env_steps']:,}: run `ppo --env "
+                f"{env} --steps {budget}` to compare them at one budget"
+            )
         speed, ref_speed = row["forward_end_mean_x_velocity"], reference["mean_x_velocity"]
         row["reference_mean_x_velocity"] = ref_speed
         row["reference_wall_s"] = reference["wall_s"]

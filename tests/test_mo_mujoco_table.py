@@ -268,3 +268,21 @@ def test_seeds_trained_otherwise_are_not_compared(tmp_path, capsys):
     err = capsys.readouterr().err.splitlines()
     assert len(err) == 1 and "train.log_std_init" in err[0]
     assert not os.path.exists(os.path.join(results, "table.md"))
+
+
+def test_a_reference_at_another_budget_is_refused(results, capsys):
+    """PPO is compared with a front only at the front's budget per preference: a reference
+    that ran another number of env steps stops the table with one line naming both."""
+    path = os.path.join(results, "halfcheetah", "reference_ppo.json")
+    reference = json.load(open(path))
+    reference["env_steps"] = 3000
+    with open(path, "w") as f:
+        json.dump(reference, f)
+    with pytest.raises(ValueError, match=r"halfcheetah smooth_wc: .* 1,000 .* 3,000"):
+        mo_mujoco.summarize(results)
+    with pytest.raises(SystemExit) as exc:
+        mo_mujoco.main(["table", "--results", results])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 1 and "--steps 1000" in err[0]
+    assert not os.path.exists(os.path.join(results, "table.md"))
