@@ -250,6 +250,16 @@ def test_overlapping_seeds_name_no_winner_and_two_seeds_no_comparison(tmp_path):
     assert mo_mujoco.summarize(results)["seeds"] == {}
 
 
+def _table_refused(results, capsys, named):
+    """The `table` command refuses: one line naming `named`, exit 2, no table written."""
+    with pytest.raises(SystemExit) as exc:
+        mo_mujoco.main(["table", "--results", results])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 1 and named in err[0]
+    assert not os.path.exists(os.path.join(results, "table.md"))
+
+
 def test_seeds_trained_otherwise_are_not_compared(tmp_path, capsys):
     """A seed whose front was trained with another setting (here a default changed
     between seeds) stops the comparison with a message naming what differs."""
@@ -261,13 +271,7 @@ def test_seeds_trained_otherwise_are_not_compared(tmp_path, capsys):
         json.dump(front, f)
     with pytest.raises(ValueError, match=r"halfcheetah linear seed 2: .*\(train\.log_std_init\)"):
         mo_mujoco.summarize(results)
-    # the command: one line, exit 2, no table written
-    with pytest.raises(SystemExit) as exc:
-        mo_mujoco.main(["table", "--results", results])
-    assert exc.value.code == 2
-    err = capsys.readouterr().err.splitlines()
-    assert len(err) == 1 and "train.log_std_init" in err[0]
-    assert not os.path.exists(os.path.join(results, "table.md"))
+    _table_refused(results, capsys, "train.log_std_init")
 
 
 def test_a_reference_at_another_budget_is_refused(results, capsys):
@@ -280,9 +284,4 @@ def test_a_reference_at_another_budget_is_refused(results, capsys):
         json.dump(reference, f)
     with pytest.raises(ValueError, match=r"halfcheetah smooth_wc: .* 1,000 .* 3,000"):
         mo_mujoco.summarize(results)
-    with pytest.raises(SystemExit) as exc:
-        mo_mujoco.main(["table", "--results", results])
-    assert exc.value.code == 2
-    err = capsys.readouterr().err.splitlines()
-    assert len(err) == 1 and "--steps 1000" in err[0]
-    assert not os.path.exists(os.path.join(results, "table.md"))
+    _table_refused(results, capsys, "--steps 1000")
