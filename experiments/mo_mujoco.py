@@ -15,7 +15,8 @@ Three commands, each writing under `--results` (default `experiments/results/mo_
   `VecNormalize`) on the task's own single-objective Gymnasium v5 reward
   (`Hopper-v5`, `HalfCheetah-v5`, `Swimmer-v5`, `Ant-v5`, `Humanoid-v5`, each with its
   default weights), the same episode length (500) and the same env-step budget per policy
-  as a front's preference; then its deterministic policy over 8 episodes. Writes
+  as a front's preference (`BUDGET`: 1M, the humanoid's 3M; `--steps` to change it); then
+  its deterministic policy over 8 episodes. Writes
   `<env>/reference_ppo.json` (`mean_x_velocity` from Gymnasium's own `x_velocity`,
   `episode_length`, `wall_s`). sbx is not a dependency of wcac_jax: run this command
   with a Python that has `sbx-rl==0.28.0` and `gymnasium[mujoco]` (as `reference_ppo.py`
@@ -67,6 +68,10 @@ SINGLE_OBJECTIVE = {
     "ant-2obj": "Ant-v5",
     "humanoid": "Humanoid-v5",
 }
+# each task's env-step budget per policy, its preset's (`wcac_jax.presets.ENV_DEFAULTS`,
+# which a test holds this equal to; `ppo` runs in sbx's Python and imports nothing of
+# wcac_jax): 3M for the humanoid, which walks at neither method's 1M
+BUDGET = {env: 1_000_000 for env in SINGLE_OBJECTIVE} | {"humanoid": 3_000_000}
 EPISODE_LENGTH = 500
 MORL_BASELINES_GAMMA = 0.99
 MORL_BASELINES_REF = -100.0
@@ -528,7 +533,10 @@ def main(argv=None) -> int:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--smoke", action="store_true", help="a tiny budget, end to end")
     parser.add_argument(
-        "--steps", type=int, default=1_000_000, help="ppo: env steps (a preference's budget)"
+        "--steps",
+        type=int,
+        default=None,
+        help="ppo: env steps (default the task's budget per preference: 1M, the humanoid 3M)",
     )
     parser.add_argument("--eval-episodes", type=int, default=8, help="ppo: evaluation episodes")
     parser.add_argument(
@@ -553,7 +561,8 @@ def main(argv=None) -> int:
     if args.command == "ppo":
         if args.env not in SINGLE_OBJECTIVE:
             parser.error(f"ppo needs --env, one of {', '.join(SINGLE_OBJECTIVE)}")
-        steps, episodes = (4096, 1) if args.smoke else (args.steps, args.eval_episodes)
+        steps = BUDGET[args.env] if args.steps is None else args.steps
+        steps, episodes = (4096, 1) if args.smoke else (steps, args.eval_episodes)
         out = os.path.join(args.results, args.env, "reference_ppo.json")
         if os.path.lexists(out) and not args.overwrite:
             refuse(f"{out!r} exists (--overwrite replaces it)")

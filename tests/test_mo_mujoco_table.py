@@ -285,3 +285,21 @@ def test_a_reference_at_another_budget_is_refused(results, capsys):
     with pytest.raises(ValueError, match=r"halfcheetah smooth_wc: .* 1,000 .* 3,000"):
         mo_mujoco.summarize(results)
     _table_refused(results, capsys, "--steps 1000")
+
+
+def test_ppo_runs_each_tasks_budget_per_preference(tmp_path, monkeypatch):
+    """`ppo`'s default env-step budget is the task's front's (its preset's), so the table
+    compares the two at one budget: the humanoid's 3M, the others' 1M."""
+    from wcac_jax import presets
+
+    assert mo_mujoco.BUDGET == {
+        env: presets.ENV_DEFAULTS[env].steps_per_pref for env in mo_mujoco.SINGLE_OBJECTIVE
+    }
+    ran = {}
+    monkeypatch.setattr(
+        mo_mujoco, "run_ppo", lambda env, out, steps, *_: ran.setdefault(env, steps)
+    )
+    for env in ("humanoid", "hopper"):
+        mo_mujoco.main(["ppo", "--env", env, "--results", str(tmp_path)])
+    mo_mujoco.main(["ppo", "--env", "ant", "--steps", "5000", "--results", str(tmp_path)])
+    assert ran == {"humanoid": 3_000_000, "hopper": 1_000_000, "ant": 5000}

@@ -64,6 +64,18 @@ def test_ant_and_halfcheetah_defaults_start_from_a_smaller_policy_noise():
     assert hopper.train == PracticalConfig().replace(num_iterations=hopper.train.num_iterations)
 
 
+def test_humanoid_default_trains_three_million_steps_per_preference():
+    """The humanoid keeps the practical preset as it is, at 3M env steps per preference
+    (at 1M neither its forward end nor PPO walks), and its note says why."""
+    humanoid = _config("--env", "humanoid")
+    assert humanoid.train == PracticalConfig().replace(num_iterations=humanoid.train.num_iterations)
+    assert humanoid.steps_per_pref == 3_000_000 == presets.HUMANOID_STEPS
+    assert humanoid.num_iterations == 1465  # ceil(3M / 2,048)
+    note = presets.ENV_DEFAULTS["humanoid"].note
+    assert note.startswith("the practical preset at 3M env steps per preference")
+    assert note.endswith(presets.HUMANOID_WHY)
+
+
 def test_walker2d_default_chooses_among_the_last_policies_when_they_fit(capsys):
     walker = _config("--env", "walker2d")
     assert (walker.select_last, walker.select_every) == (5, 20_480)
