@@ -112,10 +112,20 @@ MINUS = "\u2212"
 # ---------------------------------------------------------------- reading and formatting
 
 
-@cache
 def load(path: str) -> dict:
-    with open(os.path.join(ROOT, path)) as f:
+    """A results file by its path in the repository (`ROOT`)."""
+    return _load(os.path.join(ROOT, path))
+
+
+@cache
+def _load(full: str) -> dict:
+    with open(full) as f:
         return json.load(f)
+
+
+def find(pattern: str) -> list[str]:
+    """The paths under the repository that match `pattern`, relative to it, sorted."""
+    return sorted(os.path.relpath(p, ROOT) for p in glob.glob(os.path.join(ROOT, pattern)))
 
 
 def num(x: float | None, digits: int = 0) -> str:
@@ -1466,10 +1476,22 @@ def v_kuairand_no_bc_alg1_action(doc: Doc) -> str:
     return _end_action(doc, "kuairand_no_bc", ("alg1",))
 
 
-def _ppo_speed(env: str) -> tuple[str, float]:
-    """A MuJoCo-suite task's PPO reference: its file and mean x velocity."""
-    path = f"{R['mo_mujoco']}/{env}/reference_ppo.json"
-    return path, load(path)["mean_x_velocity"]
+def _ppo_speed(env: str, steps: int | None = None, seed: int = 0) -> tuple[str, float]:
+    """A MuJoCo-suite task's PPO reference: its file and mean x velocity. By default the
+    suite's own (`mo_mujoco/<env>/reference_ppo.json`, at the task's budget); with `steps`,
+    the one run `steps` env steps on `seed`, among the suite's and
+    `reference_ppo_<env>_v5/*/`."""
+    own = f"{R['mo_mujoco']}/{env}/reference_ppo.json"
+    if steps is None:
+        return own, load(own)["mean_x_velocity"]
+    paths = find(own) + find(f"{RES}/reference_ppo_{env}_v5/*/reference_ppo.json")
+    found = [p for p in paths if (load(p)["env_steps"], load(p)["seed"]) == (steps, seed)]
+    if len(found) != 1:
+        raise ValueError(
+            f"{env}: {len(found)} PPO references at {steps:,} env steps on seed {seed} "
+            f"({', '.join(found) or 'none'}); one is compared"
+        )
+    return found[0], load(found[0])["mean_x_velocity"]
 
 
 # the suite's speed criterion: a forward end at this fraction of PPO's speed or more
@@ -1485,16 +1507,25 @@ def _forward_end(doc: Doc, env: str, variant: str) -> str:
     if any(p["pref"] != [1.0, 0.0] for p in runs):
         raise ValueError(f"{path}: not every run is the forward end [1, 0]")
     speeds = [p["mean_x_velocity"] for p in runs]
-    _, ppo = _ppo_speed(env)
+    # PPO at the probe's own budget per policy and seed
+    config = load(f"{RES}/{env}_forward_end_practical_v5/{variant}/config.json")
+    _, ppo = _ppo_speed(env, config["steps_per_pref"], config["seed"])
     fast = sum(v >= SPEED_FLOOR * ppo for v in speeds)
     text = f"{num(min(speeds), 2)}–{num(max(speeds), 2)} m/s"
     share = f"{fast} of {len(speeds)} at {SPEED_FLOOR} × PPO's speed or more"
     return doc.link(f"{text} ({share})", path)
 
 
-def _ppo_speed_value(doc: Doc, env: str) -> str:
-    path, speed = _ppo_speed(env)
+def _ppo_speed_value(doc: Doc, env: str, steps: int) -> str:
+    path, speed = _ppo_speed(env, steps)
     return doc.link(f"{num(speed, 2)} m/s", path)
+
+
+def _ppo_run_value(doc: Doc, env: str, steps: int) -> str:
+    """PPO's speed at `steps` on seed 0 and how long its evaluation episodes last."""
+    path, speed = _ppo_speed(env, steps)
+    length = load(path)["episode_length"]
+    return doc.link(f"{num(speed, 2)} m/s in episodes of {num(length, 0)} steps", path)
 
 
 def v_mo_mujoco_thresholds(doc: Doc) -> str:
@@ -1527,10 +1558,11 @@ def v_mo_mujoco_thresholds(doc: Doc) -> str:
 
 
 def v_humanoid_ppo_seeds(doc: Doc) -> str:
-    """The humanoid's PPO reference speed on every seed run: `mo_mujoco`'s seed 0 and
-    `reference_ppo_humanoid_v5/seed<N>`."""
-    paths = [_ppo_speed("humanoid")[0]]
-    paths += sorted(glob.glob(f"{RES}/reference_ppo_humanoid_v5/seed*/reference_ppo.json"))
+    """The humanoid's PPO reference speed at 1M env steps on every seed run
+    (`reference_ppo_humanoid_v5/seed<N>`)."""
+    paths = find(f"{RES}/reference_ppo_humanoid_v5/seed*/reference_ppo.json")
+    if not paths or any(load(p)["env_steps"] != 1_000_000 for p in paths):
+        raise ValueError(f"{RES}/reference_ppo_humanoid_v5: not every seed at 1M env steps")
     runs = sorted((load(p)["seed"], load(p)["mean_x_velocity"], p) for p in paths)
     speeds = _and([doc.link(f"{num(v, 2)} m/s", p) for _, v, p in runs])
     return f"{speeds} at seeds {_and([str(seed) for seed, _, _ in runs])}"
@@ -1544,13 +1576,23 @@ FORWARD_END_PROBES = {
     "humanoid": _LOG_STDS | {"e10x8": "e10x8"},
 }
 
+# PPO's speed on seed 0 as the docs quote it: value name -> (task, env steps)
+PPO_SPEEDS = {
+    "halfcheetah_ppo_speed": ("halfcheetah", 1_000_000),
+    "humanoid_ppo_speed": ("humanoid", 1_000_000),
+}
+
 VALUES: dict[str, Callable[[Doc], str]] = {
     **{
         f"{env}_forward_end_{name}": partial(_forward_end, env=env, variant=variant)
         for env, variants in FORWARD_END_PROBES.items()
         for name, variant in variants.items()
     },
-    **{f"{env}_ppo_speed": partial(_ppo_speed_value, env=env) for env in FORWARD_END_PROBES},
+    **{
+        name: partial(_ppo_speed_value, env=env, steps=steps)
+        for name, (env, steps) in PPO_SPEEDS.items()
+    },
+    "humanoid_ppo_3M": partial(_ppo_run_value, env="humanoid", steps=3_000_000),
     "kuairand_training": v_kuairand_training,
     "kuairand_alg1_gap": v_kuairand_alg1_gap,
     "kuairand_no_bc_ddpg_gaps": v_kuairand_no_bc_ddpg_gaps,
@@ -1609,7 +1651,7 @@ def main(argv=None) -> int:
     )
     args = p.parse_args(argv)
     ROOT = os.path.abspath(args.root)
-    load.cache_clear()
+    _load.cache_clear()
     stale, bad = [], []
     for path in documents(ROOT):
         full = os.path.join(ROOT, path)

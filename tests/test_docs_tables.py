@@ -2,6 +2,7 @@
 and the README stays short."""
 
 import importlib.util
+import json
 import os
 import re
 
@@ -135,3 +136,48 @@ def test_the_suite_thresholds_sentence_names_every_front_that_misses(monkeypatch
     text = tables.v_mo_mujoco_thresholds(tables.Doc("README.md"))
     assert "but" not in text
     assert "every forward end runs at 0.8 × PPO's speed or faster" in text
+
+
+def _write_json(root, rel, data):
+    path = root / rel
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(data))
+
+
+def test_a_probe_is_compared_with_ppo_at_its_own_budget_and_seed(tmp_path, monkeypatch):
+    """A forward-end probe's share at 0.8 x PPO's speed uses PPO at the probe's budget and
+    seed, found among the suite's reference and `reference_ppo_<env>_v5/*/`; no match, or
+    two, is an error naming them."""
+    res = "experiments/results"
+    for rel, steps, seed, speed in [
+        ("mo_mujoco/humanoid", 3_000_000, 0, 0.5),
+        ("reference_ppo_humanoid_v5/seed0", 1_000_000, 0, 0.6),
+        ("reference_ppo_humanoid_v5/seed1", 1_000_000, 1, 0.1),
+    ]:
+        ppo = {"env_steps": steps, "seed": seed, "mean_x_velocity": speed, "episode_length": 99.5}
+        _write_json(tmp_path, f"{res}/{rel}/reference_ppo.json", ppo)
+    probe = f"{res}/humanoid_forward_end_practical_v5/p"
+    runs = [{"pref": [1.0, 0.0], "mean_x_velocity": v} for v in (0.5, 0.47, 0.2)]
+    _write_json(tmp_path, f"{probe}/front.json", {"prefs": runs})
+    _write_json(tmp_path, f"{probe}/config.json", {"steps_per_pref": 1_000_000, "seed": 0})
+    monkeypatch.setattr(tables, "ROOT", str(tmp_path))
+    doc = tables.Doc("docs/environments.md")
+
+    assert tables._ppo_speed("humanoid")[1] == 0.5  # the suite's own, at its budget
+    assert tables._ppo_speed("humanoid", 1_000_000)[1] == 0.6
+    assert tables._ppo_speed("humanoid", 1_000_000, seed=1)[1] == 0.1
+    # 0.8 x 0.6 = 0.48: only 0.5 reaches it (against the 3M reference, 0.47 would too)
+    text = tables._forward_end(doc, "humanoid", "p")
+    assert text.startswith("[0.20–0.50 m/s (1 of 3 at 0.8 × PPO's speed or more)](")
+    assert tables._ppo_run_value(doc, "humanoid", 3_000_000).startswith(
+        "[0.50 m/s in episodes of 100 steps]("
+    )
+    with pytest.raises(ValueError, match=r"humanoid: 0 PPO references at 2,000,000 env steps"):
+        tables._ppo_speed("humanoid", 2_000_000)
+    _write_json(
+        tmp_path,
+        f"{res}/reference_ppo_humanoid_v5/again/reference_ppo.json",
+        {"env_steps": 1_000_000, "seed": 0, "mean_x_velocity": 0.7},
+    )
+    with pytest.raises(ValueError, match=r"humanoid: 2 PPO references at 1,000,000 env steps"):
+        tables._ppo_speed("humanoid", 1_000_000)
