@@ -250,8 +250,20 @@ def test_overlapping_seeds_name_no_winner_and_two_seeds_no_comparison(tmp_path):
     assert mo_mujoco.summarize(results)["seeds"] == {}
 
 
-def _table_refused(results, capsys, named):
-    """The `table` command refuses: one line naming `named`, exit 2, no table written."""
+def _edit(path, change):
+    """Rewrites the JSON file at `path` with `change` applied to its contents."""
+    with open(path) as f:
+        data = json.load(f)
+    change(data)
+    with open(path, "w") as f:
+        json.dump(data, f)
+
+
+def _refused(results, capsys, match, named):
+    """`summarize` raises a ValueError matching `match`, and the `table` command refuses:
+    one line naming `named`, exit 2, no table written."""
+    with pytest.raises(ValueError, match=match):
+        mo_mujoco.summarize(results)
     with pytest.raises(SystemExit) as exc:
         mo_mujoco.main(["table", "--results", results])
     assert exc.value.code == 2
@@ -265,26 +277,17 @@ def test_seeds_trained_otherwise_are_not_compared(tmp_path, capsys):
     between seeds) stops the comparison with a message naming what differs."""
     results = _seeded(tmp_path, {"smooth_wc": [50, 60, 55], "linear": [20, 30, 45]})
     path = os.path.join(mo_mujoco.front_dir(results, "halfcheetah", "linear", 2), "front.json")
-    front = json.load(open(path))
-    front["config"]["train"]["log_std_init"] = -1.0
-    with open(path, "w") as f:
-        json.dump(front, f)
-    with pytest.raises(ValueError, match=r"halfcheetah linear seed 2: .*\(train\.log_std_init\)"):
-        mo_mujoco.summarize(results)
-    _table_refused(results, capsys, "train.log_std_init")
+    _edit(path, lambda front: front["config"]["train"].update(log_std_init=-1.0))
+    match = r"halfcheetah linear seed 2: .*\(train\.log_std_init\)"
+    _refused(results, capsys, match, "train.log_std_init")
 
 
 def test_a_reference_at_another_budget_is_refused(results, capsys):
     """PPO is compared with a front only at the front's budget per preference: a reference
     that ran another number of env steps stops the table with one line naming both."""
     path = os.path.join(results, "halfcheetah", "reference_ppo.json")
-    reference = json.load(open(path))
-    reference["env_steps"] = 3000
-    with open(path, "w") as f:
-        json.dump(reference, f)
-    with pytest.raises(ValueError, match=r"halfcheetah smooth_wc: .* 1,000 .* 3,000"):
-        mo_mujoco.summarize(results)
-    _table_refused(results, capsys, "--steps 1000")
+    _edit(path, lambda reference: reference.update(env_steps=3000))
+    _refused(results, capsys, r"halfcheetah smooth_wc: .* 1,000 .* 3,000", "--steps 1000")
 
 
 def test_ppo_runs_each_tasks_budget_per_preference(tmp_path, monkeypatch):
