@@ -15,14 +15,20 @@ Errors are measured per task in the parameters' comments; "rel" is `|ours - thei
 max(|theirs|, 1)`. Measured times on the 2-core CPU under a load of ~10 (compilation
 dominates; the second version of a task reuses the first's states): hopper 46 s,
 hopper-2obj 4 s, halfcheetah 43 s, swimmer 21 s, ant 56 s, ant-2obj 4 s, humanoid 45 s,
-the three reset checks 18 s; 4 min 16 s in all.
+the three reset checks 18 s; 4 min 16 s in all. Every model also loads as MuJoCo's
+own loader gives it, bit for bit (HalfCheetah's total mass set after compiling).
 """
 
+import os
+
+import mujoco
 import numpy as np
 import pytest
 from gym_states import mo_gymnasium_steps, our_steps, own_states
 
 from wcac_jax import envs
+from wcac_jax.envs import walker2d
+from wcac_jax.envs.mujoco_base import ASSETS, asset, load_model
 
 N_ENVS, N_STEPS = 16, 20  # 320 steps
 
@@ -123,3 +129,21 @@ def test_reset_observation_matches_mo_gymnasium(name):
     genv.unwrapped.data.cfrc_ext[:] = 0.0  # as after Gymnasium's own reset (mj_resetData)
     ref = genv.unwrapped._get_obs()
     _assert_relative(state.obs, ref, 3e-7)
+
+
+MODELS = {n: asset(n) for n in sorted(os.listdir(ASSETS)) if n.endswith(".xml")}
+MODELS["brax_walker2d"] = walker2d.model_path("brax")
+
+
+@pytest.mark.parametrize("name", sorted(MODELS))
+def test_models_load_as_mujocos_own_loader_gives_without_warnings(name, capfd):
+    capfd.readouterr()
+    ours = load_model(MODELS[name])
+    warned = capfd.readouterr()
+    assert "WARNING" not in warned.out + warned.err
+    theirs = mujoco.MjModel.from_xml_path(MODELS[name])
+    arrays = [n for n in dir(theirs) if isinstance(getattr(theirs, n, None), np.ndarray)]
+    assert "body_mass" in arrays and "body_inertia" in arrays
+    for field in arrays:
+        np.testing.assert_array_equal(getattr(ours, field), getattr(theirs, field), field)
+    assert mujoco.mj_getTotalmass(ours) == mujoco.mj_getTotalmass(theirs)

@@ -67,8 +67,19 @@ def load_model(
     path: str, solver_iterations: int | None = None, ls_iterations: int | None = None
 ) -> mujoco.MjModel:
     """The MuJoCo model at `path`, with optional solver overrides (`opt.iterations`,
-    `opt.ls_iterations`)."""
-    model = mujoco.MjModel.from_xml_path(path)
+    `opt.ls_iterations`).
+
+    A model whose compiler sets the total mass (`settotalmass`, as Gymnasium's
+    HalfCheetah does; deprecated since MuJoCo 4) compiles without it and is then scaled
+    by `mj_setTotalmass` and `mj_setConst`, MuJoCo's named replacement: the same model
+    as MuJoCo's own loader gives, without the deprecation warning."""
+    spec = mujoco.MjSpec.from_file(path)
+    total_mass = spec.compiler.settotalmass
+    spec.compiler.settotalmass = -1.0
+    model = spec.compile()
+    if total_mass > 0:
+        mujoco.mj_setTotalmass(model, total_mass)
+        mujoco.mj_setConst(model, mujoco.MjData(model))
     if solver_iterations is not None:
         model.opt.iterations = solver_iterations
     if ls_iterations is not None:
