@@ -16,7 +16,7 @@ import time
 
 import jax
 
-from wcac_jax import algos, distributed, envs, pareto, presets
+from wcac_jax import algos, distributed, envs, pareto, presets, protocols
 from wcac_jax.presets import PAPER_PREFS
 from wcac_jax.sweep import (
     SweepConfig,
@@ -27,6 +27,8 @@ from wcac_jax.sweep import (
     run_conditioned,
     run_sweep,
 )
+from wcac_jax.sweep.protocol import budget_note as protocol_budget_note
+from wcac_jax.sweep.protocol import protocol_sweep
 
 
 def _parse_prefs(text: str) -> tuple[tuple[float, ...], ...]:
@@ -290,7 +292,11 @@ def build_parser() -> argparse.ArgumentParser:
         "default_hv_ref, per objective the least return an episode can have)",
     )
     p.add_argument(
-        "--eval-episodes", type=int, default=8, help="evaluation episodes per preference (8)"
+        "--eval-episodes",
+        type=int,
+        default=None,
+        help=f"evaluation episodes per preference ({EVAL_EPISODES}; a protocol's own with "
+        "--protocol)",
     )
     add_selection_flags(p)
     p.add_argument("--seed", type=int, default=0, help="random seed (0)")
@@ -312,6 +318,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--quiet", action="store_true", help="no progress output")
     add_conditioned_flags(p)
+    add_protocol_flags(p)
     g = p.add_argument_group(
         "several processes (README, 'Many machines'): run the same command in each, "
         "with its own --process-id"
@@ -374,6 +381,62 @@ def add_conditioned_flags(parser) -> None:
 
 CONDITIONED_TOTAL_STEPS = 3_000_000
 CONDITIONED_EVAL_PREFS = 33
+EVAL_EPISODES = 8
+
+
+def add_protocol_flags(parser) -> None:
+    """`--protocol NAME [--off-budget]` (`wcac_jax.protocols`)."""
+    g = parser.add_argument_group("a benchmark protocol of the field (docs/protocols.md)")
+    g.add_argument(
+        "--protocol",
+        choices=tuple(protocols.PROTOCOLS),
+        default=None,
+        help="train --env's preset for the protocol (one conditioned network) on the "
+        "protocol's budget and score its front as the protocol does: "
+        + "; ".join(
+            f"{p.name}: {', '.join(t.env for t in p.tasks)}" for p in protocols.PROTOCOLS.values()
+        ),
+    )
+    g.add_argument(
+        "--off-budget",
+        action="store_true",
+        help="with --protocol, allow --total-steps other than the protocol's budget (the "
+        "front is scored, and marked as not comparable with the published numbers)",
+    )
+
+
+def protocol_config(args) -> SweepConfig:
+    """The `SweepConfig` of `--protocol`: `protocol_sweep` of `--env`, the training flags
+    over the protocol's preset, `--total-steps` only with `--off-budget`."""
+    for flag in (
+        "prefs",
+        "n_prefs",
+        "eval_prefs",
+        "steps_per_pref",
+        "select_last",
+        "select_every",
+        "eval_episodes",
+        "preset",
+        "episode_length",
+    ):
+        if getattr(args, flag, None) is not None:
+            raise SweepError(f"{_flag(flag)} does not apply to --protocol (the protocol fixes it)")
+    if args.total_steps is not None and not args.off_budget:
+        raise SweepError(
+            f"--total-steps with --protocol {args.protocol} trains off the protocol's budget: "
+            "add --off-budget to do so on purpose"
+        )
+    train = presets.protocol_preset(args.protocol, args.env)
+    train = apply_config_flags(args, train, f"the {args.protocol} protocol's preset for {args.env}")
+    options = {}
+    if args.physics is not None:
+        options["physics"] = args.physics
+    if args.engine is not None:
+        options["engine"] = args.engine
+    config = protocol_sweep(args.env, args.protocol, args.seed, train, args.total_steps, options)
+    if not args.quiet:
+        print(f"note: {protocol_budget_note(config)}", file=sys.stderr, flush=True)
+    return config
 
 
 def conditioned_config(args) -> SweepConfig:
@@ -400,6 +463,10 @@ def conditioned_config(args) -> SweepConfig:
 def config_from_args(args) -> SweepConfig:
     """Builds (and validates) a `SweepConfig` from parsed CLI arguments: the preset's (or
     the environment's default) configuration, with every flag given applied over it."""
+    if getattr(args, "protocol", None) is not None:
+        return protocol_config(args)
+    if getattr(args, "off_budget", False):
+        raise SweepError("--off-budget needs --protocol")
     conditioned = getattr(args, "conditioned", False)
     if conditioned:
         return conditioned_config(args)
@@ -450,7 +517,7 @@ def config_from_args(args) -> SweepConfig:
         train=train,
         steps_per_pref=steps,
         seed=args.seed,
-        eval_episodes=args.eval_episodes,
+        eval_episodes=EVAL_EPISODES if args.eval_episodes is None else args.eval_episodes,
         hv_ref=None if args.hv_ref is None else _parse_floats(args.hv_ref, "--hv-ref"),
     )
     if args.preset is None and defaults.fallback and not args.quiet:
@@ -607,7 +674,8 @@ def main(argv=None, *, every_core: bool | None = None) -> int:
         out = args.out or os.path.join("runs", time.strftime("%Y%m%d-%H%M%S"))
         if args.resume and args.out is None:
             raise SweepError("--resume needs --out DIR")
-        front = (run_conditioned if args.conditioned else run_sweep)(
+        conditioned = args.conditioned or args.protocol is not None
+        front = (run_conditioned if conditioned else run_sweep)(
             config,
             out,
             resume=args.resume,
@@ -635,6 +703,14 @@ def main(argv=None, *, every_core: bool | None = None) -> int:
             f"{front['hypervolume']:.6g}, {front['env_steps_per_s']:,.0f} env-steps/s, "
             f"{front['wall_s']:.0f} s"
         )
+        if "protocol" in front:
+            score = front["protocol"]
+            print(
+                f"{score['protocol']} protocol ({score['task']}): HV {score['hv']:.4g}, "
+                f"EU {score['eu']:.4g}, {score['nondominated']} non-dominated of "
+                f"{score['eval_prefs']} preferences, {score['env_steps_trained']:,} env steps"
+                + "".join(f"; NOT the protocol's: {d}" for d in score["deviations"])
+            )
         if "selection" in front:
             chosen = front["selection"]["chosen_iteration"]
             print(

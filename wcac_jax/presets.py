@@ -21,7 +21,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from wcac_jax.algos import ALGOS, AnyConfig, PaperConfig, PracticalConfig
+from wcac_jax.algos import ALGOS, AnyConfig, ConditionedConfig, PaperConfig, PracticalConfig
 
 # The paper's nine preferences (its Fig. 3): uneven steps, finer near the ends.
 PAPER_PREFS = (
@@ -282,3 +282,16 @@ def env_defaults(env: str) -> Defaults:
     return Defaults(
         "practical", PracticalConfig(), FALLBACK_STEPS_PER_PREF, FALLBACK_NOTE, fallback=True
     )
+
+
+# Each benchmark protocol's preset per task (`wcac_jax.protocols`): the conditioned
+# update's configuration that `--protocol NAME` trains on the task (one network for the
+# whole front, at the protocol's budget). A task without an entry trains the
+# conditioned update's defaults.
+PROTOCOL_PRESETS: dict[tuple[str, str], ConditionedConfig] = {}
+
+
+def protocol_preset(protocol: str, env: str) -> ConditionedConfig:
+    """The conditioned configuration `protocol`'s run of `env` trains (`PROTOCOL_PRESETS`,
+    else `ConditionedConfig()`)."""
+    return PROTOCOL_PRESETS.get((protocol, env), ConditionedConfig())

@@ -24,7 +24,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from wcac_jax import algos, outputs, runtime
+from wcac_jax import algos, outputs, protocols, runtime
 from wcac_jax.algos import conditioned
 from wcac_jax.outputs import summarize, write_outputs
 from wcac_jax.sweep.config import SweepConfig, SweepError, default_hv_ref, make_env, validate_prefs
@@ -49,20 +49,24 @@ def policy_at(run: LoadedSweep, pref):
     return conditioned.policy_at(run.trainer, jax.tree.map(lambda leaf: leaf[0], run.state), pref)
 
 
-def evaluate_at(run: LoadedSweep, prefs, episodes: int | None = None, seed: int = 1) -> dict:
+def evaluate_at(
+    run: LoadedSweep, prefs, episodes: int | None = None, seed: int = 1, gamma: float | None = None
+) -> dict:
     """The network of `run` evaluated at each of `prefs` `[K, m]` (`episodes` fresh ones
     each; default the sweep's): `runtime.make_evaluate`'s metrics `[K, ...]` on the host,
-    and `eval/j_hat` `[K, m]`, the critic's `sigma * V(s0, p)` at those episodes' starts."""
+    with returns discounted at `gamma` (default: the training's), and `eval/j_hat`
+    `[K, m]`, the critic's `sigma * V(s0, p)` at those episodes' starts."""
     prefs = jnp.asarray(np.asarray(prefs, np.float32))
     keys = jax.random.split(jax.random.key(seed), prefs.shape[0])
-    program = _evaluate_program(run, episodes or run.config.eval_episodes)
+    program = _evaluate_program(run, episodes or run.config.eval_episodes, gamma)
     state = jax.tree.map(lambda leaf: leaf[0], run.state)
     return jax.device_get(program(state, keys, prefs))
 
 
-def _evaluate_program(run: LoadedSweep, episodes: int):
+def _evaluate_program(run: LoadedSweep, episodes: int, gamma: float | None):
     train = run.config.train_config()
-    evaluate = conditioned.make_evaluate_at(train, run.env, episodes, run.trainer)
+    measured = train if gamma is None else train.replace(gamma=gamma)
+    evaluate = conditioned.make_evaluate_at(measured, run.env, episodes, run.trainer)
     estimate = conditioned.make_estimate_at(train, run.env, episodes, run.trainer)
 
     def one(state, key, pref):
@@ -120,12 +124,26 @@ def _run(config, out, resume, chunks, progress, write) -> dict:
         return trained
     run = load_sweep(out)
     t0 = time.perf_counter()
-    evaluation = evaluate_at(run, prefs, config.eval_episodes, seed=config.seed + (1 << 30))
+    gamma = eval_gamma(config)
+    evaluation = evaluate_at(
+        run, prefs, config.eval_episodes, seed=config.seed + (1 << 30), gamma=gamma
+    )
     eval_s = time.perf_counter() - t0
     front = _front(config, run, prefs, evaluation, trained, eval_s)
+    front["eval_gamma"] = gamma
+    if config.protocol is not None:
+        front["protocol"] = protocols.front_scores(front)
     if write:
         write_outputs(out, front, run.metrics, np.asarray(run.config.prefs))
     return front
+
+
+def eval_gamma(config: SweepConfig) -> float:
+    """The discount of the evaluation's `discounted_return`: the protocol's, when it
+    discounts, else the training's."""
+    if config.protocol is not None and protocols.get(config.protocol).gamma < 1.0:
+        return protocols.get(config.protocol).gamma
+    return config.train.gamma
 
 
 def _front(config, run, prefs, evaluation, trained, eval_s) -> dict:

@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 import jax
 import numpy as np
 
-from wcac_jax import envs, selection
+from wcac_jax import envs, protocols, selection
 from wcac_jax.algos import AnyConfig, PaperConfig, from_dict, to_dict
 from wcac_jax.outputs import json_bytes, unwritable_dir
 
@@ -46,6 +46,8 @@ class SweepConfig:
         (`wcac_jax.selection`; 1: the final policy, no choice).
       select_every: environment steps between those candidates (rounded up to whole
         iterations; needed when `select_last > 1`).
+      protocol: the benchmark protocol the front is scored under besides the project's
+        own metrics (`wcac_jax.protocols`; `None`: none). `env` must be one of its tasks.
     """
 
     prefs: tuple[tuple[float, ...], ...]
@@ -59,6 +61,7 @@ class SweepConfig:
     device_count: int | None = None
     select_last: int = 1
     select_every: int = 0
+    protocol: str | None = None
 
     def __post_init__(self):
         for name in ("steps_per_pref", "eval_episodes", "select_last"):
@@ -93,6 +96,11 @@ class SweepConfig:
             self.candidate_iterations  # noqa: B018 (validates)
         except ValueError as err:
             raise SweepError(str(err)) from None
+        if self.protocol is not None:
+            try:
+                protocols.get(self.protocol).task(self.env)
+            except ValueError as err:
+                raise SweepError(str(err)) from None
 
     @property
     def num_iterations(self) -> int:
@@ -109,7 +117,9 @@ class SweepConfig:
         return self.train.replace(num_iterations=self.num_iterations)
 
     def to_dict(self) -> dict:
-        return {
+        """The config as JSON-ready data (`protocol` only when one is set, so a sweep
+        without one writes the same `config.json` as before protocols existed)."""
+        out = {
             "prefs": [list(p) for p in self.prefs],
             "env": self.env,
             "env_options": dict(self.env_options),
@@ -122,6 +132,9 @@ class SweepConfig:
             "select_last": self.select_last,
             "select_every": self.select_every,
         }
+        if self.protocol is not None:
+            out["protocol"] = self.protocol
+        return out
 
     @classmethod
     def from_dict(cls, d: dict) -> SweepConfig:
@@ -138,6 +151,7 @@ class SweepConfig:
             device_count=d.get("device_count"),
             select_last=int(d.get("select_last", 1)),
             select_every=int(d.get("select_every", 0)),
+            protocol=d.get("protocol"),
         )
 
 

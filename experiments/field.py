@@ -1,0 +1,265 @@
+"""The field's benchmark protocols (`wcac_jax.protocols`): every task's front at the
+protocol's budget, and one table that sets each published number beside ours on the same
+definition only.
+
+Two commands, writing under `--results` (default `experiments/results/field`):
+
+- `run --protocol P --env T --seeds S [S ...]`: for each seed, `python -m wcac_jax.sweep
+  --env T --protocol P --seed S --out <results>/P/T/seedS` (the protocol's preset for the
+  task: one preference-conditioned network trained on the protocol's budget, evaluated
+  and scored as the protocol says). A non-empty seed directory is refused unless
+  `--resume` (the sweep continues it; a finished one is left as it is) or `--overwrite`.
+  Seeds run one after another, each alone in its process.
+- `table`: reads every `<results>/P/T/seedS/front.json` and `<results>/published.json`
+  and writes `table.json` and `table.md`: per protocol and task, each seed's protocol HV
+  and EU (recomputed from the front's returns by `protocols.front_scores`, and checked
+  against what the run wrote), their mean with a 95% Student-t interval over the seeds,
+  the env steps trained (whole iterations, at most the budget) and evaluated, the wall
+  time per seed, and the published numbers of the same protocol, task definition and
+  budget beside them, with the ratio of our mean to the best. A published number whose
+  definition (the environment it was measured on) or budget differs from the protocol's
+  task is refused, naming both; so is a run that deviates from its protocol.
+
+No number is typed here: ours are read from the runs, the published ones from
+`published.json`, each with its source.
+"""
+
+from __future__ import annotations
+
+import argparse
+import glob
+import json
+import math
+import os
+import subprocess
+import sys
+
+import numpy as np
+
+from wcac_jax import protocols
+from wcac_jax.outputs import json_bytes, write_atomic
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+RESULTS = os.path.join(ROOT, "experiments", "results", "field")
+
+
+class TableError(ValueError):
+    """A comparison the table refuses (another definition or budget, a deviating run)."""
+
+
+def seed_dir(results: str, protocol: str, env: str, seed: int) -> str:
+    return os.path.join(results, protocol, env, f"seed{seed}")
+
+
+def run(results: str, protocol: str, env: str, seeds, resume: bool, overwrite: bool) -> int:
+    """Trains and scores each seed in its own process (see the module docstring)."""
+    for seed in seeds:
+        out = seed_dir(results, protocol, env, seed)
+        if os.path.isfile(os.path.join(out, "front.json")) and resume:
+            print(f"{out} is finished", flush=True)
+            continue
+        cmd = [sys.executable, "-m", "wcac_jax.sweep", "--env", env, "--protocol", protocol]
+        cmd += ["--seed", str(seed), "--out", out]
+        if resume and os.path.isdir(out):
+            cmd.append("--resume")
+        elif overwrite:
+            cmd.append("--overwrite")
+        print(" ".join(cmd[1:]), flush=True)
+        status = subprocess.call(cmd, cwd=ROOT)
+        if status:
+            return status
+    return 0
+
+
+# ----------------------------------------------------------------------------- the table
+
+
+def mean_interval(values) -> tuple[float, float, float]:
+    """`(mean, lo, hi)`: the mean and its 95% Student-t interval over the values (one
+    value: the interval is the value itself)."""
+    x = np.asarray(values, np.float64)
+    mean = float(np.mean(x))
+    if len(x) < 2:
+        return mean, mean, mean
+    from scipy import stats
+
+    half = float(stats.t.ppf(0.975, len(x) - 1) * np.std(x, ddof=1) / math.sqrt(len(x)))
+    return mean, mean - half, mean + half
+
+
+def load_published(results: str) -> list[dict]:
+    with open(os.path.join(results, "published.json")) as f:
+        return json.load(f)["entries"]
+
+
+def published_for(entries: list[dict], protocol: protocols.Protocol, task) -> list[dict]:
+    """The published entries set beside `task` under `protocol`, each checked: the same
+    protocol, task definition (the environment it was measured on) and budget.
+
+    Raises:
+      TableError: an entry filed under this protocol and task whose definition or budget
+        differs, naming both.
+    """
+    budget = protocol.budget(task.num_objectives)
+    out = []
+    for entry in entries:
+        if entry["protocol"] != protocol.name or entry["task"] != task.env:
+            continue
+        if entry["definition"] != task.reference:
+            raise TableError(
+                f"{entry['method']} on {task.env} ({protocol.name}) was measured on "
+                f"{entry['definition']}, not {task.reference}: another task definition"
+            )
+        if entry["budget"] != budget:
+            raise TableError(
+                f"{entry['method']} on {task.env} ({protocol.name}) trained "
+                f"{entry['budget']:,} env steps, not the protocol's {budget:,}: another budget"
+            )
+        out.append(entry)
+    return out
+
+
+def task_row(results: str, protocol: protocols.Protocol, task, entries) -> dict | None:
+    """One task's row (see the module docstring), or `None` without runs."""
+    paths = sorted(
+        glob.glob(os.path.join(results, protocol.name, task.env, "seed*", "front.json")),
+        key=lambda p: int(os.path.basename(os.path.dirname(p))[4:]),
+    )
+    published = published_for(entries, protocol, task)
+    if not paths:
+        return None
+    seeds = []
+    for path in paths:
+        with open(path) as f:
+            front = json.load(f)
+        score = protocols.front_scores(front)
+        if score["deviations"]:
+            departs = "; ".join(score["deviations"])
+            raise TableError(f"{path} departs from the {protocol.name} protocol: {departs}")
+        written = front["protocol"]
+        for key in ("hv", "eu"):
+            if not math.isclose(written[key], score[key], rel_tol=1e-9):
+                raise TableError(f"{path}: its written {key} {written[key]} is not {score[key]}")
+        seeds.append(
+            {
+                "seed": int(front["config"]["seed"]),
+                "hv": score["hv"],
+                "eu": score["eu"],
+                "nondominated": score["nondominated"],
+                "env_steps_trained": score["env_steps_trained"],
+                "eval_env_steps": score["eval_env_steps"],
+                "wall_s": front["wall_s"],
+                "path": os.path.relpath(path, ROOT),
+            }
+        )
+    hv = mean_interval([s["hv"] for s in seeds])
+    eu = mean_interval([s["eu"] for s in seeds])
+    best = max(published, key=lambda e: e["hv"]) if published else None
+    return {
+        "protocol": protocol.name,
+        "task": task.env,
+        "published_task": task.published,
+        "definition": task.reference,
+        "budget": protocol.budget(task.num_objectives),
+        "seeds": seeds,
+        "hv": {"mean": hv[0], "ci95": [hv[1], hv[2]]},
+        "eu": {"mean": eu[0], "ci95": [eu[1], eu[2]]},
+        "published": published,
+        "best_published": None if best is None else {"method": best["method"], "hv": best["hv"]},
+        "ratio_to_best": None if best is None else hv[0] / best["hv"],
+        "ratio_ci95": None if best is None else [hv[1] / best["hv"], hv[2] / best["hv"]],
+    }
+
+
+def summarize(results: str) -> dict:
+    entries = load_published(results)
+    rows = []
+    for protocol in protocols.PROTOCOLS.values():
+        for task in protocol.tasks:
+            row = task_row(results, protocol, task, entries)
+            if row is not None:
+                rows.append(row)
+    return {
+        "protocols": {
+            p.name: {
+                "title": p.title,
+                "gamma": p.gamma,
+                "ref_value": p.ref_value,
+                "drop_negative": p.drop_negative,
+                "budget_by_m": {str(k): v for k, v in p.budget_by_m.items()},
+            }
+            for p in protocols.PROTOCOLS.values()
+        },
+        "rows": rows,
+    }
+
+
+def _e(x: float) -> str:
+    return f"{x:.3g}"
+
+
+def write_table(summary: dict, results: str) -> None:
+    lines = [
+        "| protocol | task | seeds | HV mean [95%] | EU mean | best published (HV) | ratio "
+        "[95%] | env steps trained | eval env steps | wall s per seed |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in summary["rows"]:
+        best = r["best_published"]
+        lines.append(
+            f"| {r['protocol']} | {r['task']} | {len(r['seeds'])} "
+            f"| {_e(r['hv']['mean'])} [{_e(r['hv']['ci95'][0])}, {_e(r['hv']['ci95'][1])}] "
+            f"| {r['eu']['mean']:.4g} "
+            + (
+                f"| {best['method']} {_e(best['hv'])} | {r['ratio_to_best']:.2f} "
+                f"[{r['ratio_ci95'][0]:.2f}, {r['ratio_ci95'][1]:.2f}] "
+                if best
+                else "| none published | — "
+            )
+            + f"| {r['seeds'][0]['env_steps_trained']:,} "
+            + f"| {r['seeds'][0]['eval_env_steps']:,} "
+            + "| "
+            + ", ".join(f"{s['wall_s']:.0f}" for s in r["seeds"])
+            + " |"
+        )
+    write_atomic(os.path.join(results, "table.md"), ("\n".join(lines) + "\n").encode())
+    write_atomic(os.path.join(results, "table.json"), json_bytes(summary))
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--results", default=RESULTS)
+    sub = parser.add_subparsers(dest="command", required=True)
+    p = sub.add_parser("run", help="train and score seeds of one task under one protocol")
+    p.add_argument("--protocol", required=True, choices=tuple(protocols.PROTOCOLS))
+    p.add_argument("--env", required=True)
+    p.add_argument("--seeds", type=int, nargs="+", default=[0])
+    g = p.add_mutually_exclusive_group()
+    g.add_argument("--resume", action="store_true")
+    g.add_argument("--overwrite", action="store_true")
+    p = sub.add_parser("table", help="write table.json and table.md from the runs")
+    p.add_argument("--overwrite", action="store_true")
+    args = parser.parse_args(argv)
+    if args.command == "run":
+        try:
+            protocols.get(args.protocol).task(args.env)
+        except ValueError as err:
+            print(f"error: {err}", file=sys.stderr)
+            return 2
+        return run(args.results, args.protocol, args.env, args.seeds, args.resume, args.overwrite)
+    target = os.path.join(args.results, "table.json")
+    if os.path.exists(target) and not args.overwrite:
+        print(f"error: {target} exists (--overwrite replaces it)", file=sys.stderr)
+        return 2
+    try:
+        summary = summarize(args.results)
+    except TableError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+    write_table(summary, args.results)
+    print(f"wrote {target}: {len(summary['rows'])} tasks")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
