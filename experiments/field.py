@@ -10,6 +10,13 @@ Two commands, writing under `--results` (default `experiments/results/field`):
   and scored as the protocol says). A non-empty seed directory is refused unless
   `--resume` (the sweep continues it; a finished one is left as it is) or `--overwrite`.
   Seeds run one after another, each alone in its process.
+- `ablation --protocol P --env T --variants V [V ...] --seeds S [S ...]`: the choices
+  around the method measured, not argued: each variant (`VARIANTS`: the conditioned
+  update's defaults with named fields changed) trained and scored as the protocol says
+  into `<results>/ablation/P/T/V/seedS`, one run at a time in this process; finished
+  runs are kept, unfinished ones continued. `ablation-table` writes `ablation.json` and
+  `ablation.md`: per task and variant each seed's HV and EU, their mean and interval,
+  and the mean's ratio to the `default` variant's.
 - `table`: reads every `<results>/P/T/seedS/front.json` and `<results>/published.json`
   and writes `table.json` and `table.md`: per protocol and task, each seed's protocol HV
   and EU (recomputed from the front's returns by `protocols.front_scores`, and checked
@@ -38,6 +45,31 @@ import numpy as np
 
 from wcac_jax import protocols
 from wcac_jax.outputs import json_bytes, write_atomic
+
+# The ablation's variants: fields of the conditioned update changed from its defaults
+# (`ConditionedConfig()`), each a choice around the method (its direction, smooth_wc, stays).
+VARIANTS: dict[str, dict] = {
+    "default": {},
+    "m32": {"num_minibatches": 32},
+    "e10": {"num_epochs": 10},
+    "e10m32": {"num_epochs": 10, "num_minibatches": 32},
+    "n32": {"num_envs": 32},
+    "logstd-0.5": {"log_std_init": -0.5},
+    "logstd-1": {"log_std_init": -1.0},
+    "anneal": {"anneal_lr": True},
+    "e10m32-alpha0.5": {"num_epochs": 10, "num_minibatches": 32, "pref_alpha": 0.5},
+    "e10m32-w256": {"num_epochs": 10, "num_minibatches": 32, "width": 256},
+    "e10m32-logstd-1": {"num_epochs": 10, "num_minibatches": 32, "log_std_init": -1.0},
+    "e10m32-mu10": {"num_epochs": 10, "num_minibatches": 32, "mu": 10.0},
+    "e10m32-mu3": {"num_epochs": 10, "num_minibatches": 32, "mu": 3.0},
+    "e10m32-film": {"num_epochs": 10, "num_minibatches": 32, "conditioning": "film"},
+    "e10m32-logstd-1-film": {
+        "num_epochs": 10,
+        "num_minibatches": 32,
+        "log_std_init": -1.0,
+        "conditioning": "film",
+    },
+}
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 RESULTS = os.path.join(ROOT, "experiments", "results", "field")
@@ -69,6 +101,93 @@ def run(results: str, protocol: str, env: str, seeds, resume: bool, overwrite: b
         if status:
             return status
     return 0
+
+
+def ablation_dir(results: str, protocol: str, env: str, variant: str, seed: int) -> str:
+    return os.path.join(results, "ablation", protocol, env, variant, f"seed{seed}")
+
+
+def ablation(results: str, protocol: str, env: str, variants, seeds) -> int:
+    """Trains and scores each variant and seed (see the module docstring)."""
+    from wcac_jax.algos import ConditionedConfig
+    from wcac_jax.sweep import run_conditioned
+    from wcac_jax.sweep.protocol import protocol_sweep
+
+    for variant in variants:
+        for seed in seeds:
+            out = ablation_dir(results, protocol, env, variant, seed)
+            if os.path.isfile(os.path.join(out, "front.json")):
+                print(f"{out} is finished", flush=True)
+                continue
+            train = ConditionedConfig(**VARIANTS[variant])
+            config = protocol_sweep(env, protocol, seed, train)
+            print(f"{out}: {VARIANTS[variant] or 'the defaults'}", flush=True)
+            front = run_conditioned(config, out, resume=os.path.isdir(out), chunks=10)
+            if front.get("interrupted"):
+                return 1
+            score = front["protocol"]
+            print(f"  HV {score['hv']:.4g}, EU {score['eu']:.4g}, {front['wall_s']:.0f} s")
+    return 0
+
+
+def ablation_summary(results: str) -> dict:
+    """`ablation.json`'s content: per protocol, task and variant, each seed's scores."""
+    rows = []
+    for path in sorted(glob.glob(os.path.join(results, "ablation", "*", "*", "*"))):
+        protocol, env, variant = path.split(os.sep)[-3:]
+        seeds = []
+        for front_path in sorted(glob.glob(os.path.join(path, "seed*", "front.json"))):
+            with open(front_path) as f:
+                front = json.load(f)
+            score = protocols.front_scores(front)
+            seeds.append(
+                {
+                    "seed": int(front["config"]["seed"]),
+                    "hv": score["hv"],
+                    "eu": score["eu"],
+                    "wall_s": front["wall_s"],
+                    "deviations": score["deviations"],
+                }
+            )
+        if not seeds:
+            continue
+        hv = mean_interval([s["hv"] for s in seeds])
+        rows.append(
+            {
+                "protocol": protocol,
+                "task": env,
+                "variant": variant,
+                "changes": VARIANTS.get(variant),
+                "seeds": seeds,
+                "hv": {"mean": hv[0], "ci95": [hv[1], hv[2]]},
+                "eu_mean": float(np.mean([s["eu"] for s in seeds])),
+            }
+        )
+    base = {(r["protocol"], r["task"]): r["hv"]["mean"] for r in rows if r["variant"] == "default"}
+    for r in rows:
+        ref = base.get((r["protocol"], r["task"]))
+        r["ratio_to_default"] = None if ref is None else r["hv"]["mean"] / ref
+    return {"rows": rows}
+
+
+def write_ablation(summary: dict, results: str) -> None:
+    lines = [
+        "| protocol | task | variant | changes | seeds | HV mean [95%] | EU mean | vs default "
+        "| wall s per seed |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in summary["rows"]:
+        ratio = "—" if r["ratio_to_default"] is None else f"{r['ratio_to_default']:.2f}"
+        lo, hi = r["hv"]["ci95"]
+        lines.append(
+            f"| {r['protocol']} | {r['task']} | {r['variant']} | {r['changes']} "
+            f"| {', '.join(str(s['seed']) for s in r['seeds'])} "
+            f"| {_e(r['hv']['mean'])} [{_e(lo)}, {_e(hi)}] | {r['eu_mean']:.4g} | {ratio} | "
+            + ", ".join(f"{s['wall_s']:.0f}" for s in r["seeds"])
+            + " |"
+        )
+    write_atomic(os.path.join(results, "ablation.md"), ("\n".join(lines) + "\n").encode())
+    write_atomic(os.path.join(results, "ablation.json"), json_bytes(summary))
 
 
 # ----------------------------------------------------------------------------- the table
@@ -237,9 +356,22 @@ def main(argv=None) -> int:
     g = p.add_mutually_exclusive_group()
     g.add_argument("--resume", action="store_true")
     g.add_argument("--overwrite", action="store_true")
+    p = sub.add_parser("ablation", help="train and score variants of the conditioned update")
+    p.add_argument("--protocol", required=True, choices=tuple(protocols.PROTOCOLS))
+    p.add_argument("--env", required=True)
+    p.add_argument("--variants", nargs="+", required=True, choices=tuple(VARIANTS))
+    p.add_argument("--seeds", type=int, nargs="+", default=[0])
+    sub.add_parser("ablation-table", help="write ablation.json and ablation.md")
     p = sub.add_parser("table", help="write table.json and table.md from the runs")
     p.add_argument("--overwrite", action="store_true")
     args = parser.parse_args(argv)
+    if args.command == "ablation":
+        return ablation(args.results, args.protocol, args.env, args.variants, args.seeds)
+    if args.command == "ablation-table":
+        summary = ablation_summary(args.results)
+        write_ablation(summary, args.results)
+        print(f"wrote {os.path.join(args.results, 'ablation.json')}: {len(summary['rows'])} rows")
+        return 0
     if args.command == "run":
         try:
             protocols.get(args.protocol).task(args.env)

@@ -175,6 +175,45 @@ def tanh_mlp(in_dim: int, out_dim: int, width: int, depth: int, out_scale: float
     return _trainable_network(module, in_dim)
 
 
+class _FiLMMLP(nn.Module):
+    """`_MLP` whose every hidden layer's pre-activation `h` is modulated by the input's
+    last `cond_dim` entries `c`: `tanh(h * (1 + gamma(c)) + beta(c))`, `gamma` and `beta`
+    linear in `c` and zero at initialisation (so it starts as the plain MLP)."""
+
+    hidden: tuple[int, ...]
+    out_dim: int
+    cond_dim: int
+    hidden_init: Callable
+    out_init: Callable
+
+    @nn.compact
+    def __call__(self, x):
+        cond = x[..., -self.cond_dim :]
+        for size in self.hidden:
+            h = nn.Dense(size, kernel_init=self.hidden_init)(x)
+            film = nn.Dense(2 * size, kernel_init=nn.initializers.zeros)(cond)
+            gamma, beta = jnp.split(film, 2, axis=-1)
+            x = jnp.tanh(h * (1.0 + gamma) + beta)
+        return nn.Dense(self.out_dim, kernel_init=self.out_init)(x)
+
+
+def film_tanh_mlp(
+    in_dim: int, out_dim: int, width: int, depth: int, out_scale: float, cond_dim: int
+) -> Network:
+    """`tanh_mlp` conditioned by FiLM on the input's last `cond_dim` entries (e.g. a
+    preference appended to the observation): the whole input enters the first layer, as
+    in `tanh_mlp`, and the conditioning part also scales and shifts every hidden layer
+    (`_FiLMMLP`; the modulation starts at zero, so at initialisation this is `tanh_mlp`
+    with the same hidden and output initialisers)."""
+    _check_size("film_tanh_mlp", width, depth)
+    if not 0 < cond_dim <= in_dim:
+        raise ValueError(f"film_tanh_mlp needs 0 < cond_dim <= in_dim, got {cond_dim=}, {in_dim=}")
+    module = _FiLMMLP(
+        (width,) * depth, out_dim, cond_dim, orthogonal(math.sqrt(2)), orthogonal(out_scale)
+    )
+    return _trainable_network(module, in_dim)
+
+
 def make_network(
     kind: str, in_dim: int, out_dim: int, width: int, depth: int, policy_head: bool = False
 ) -> Network:

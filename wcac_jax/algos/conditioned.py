@@ -40,8 +40,10 @@ from brax.envs.base import Env, State, Wrapper
 from wcac_jax import networks, runtime, scalarize, utopia
 from wcac_jax.algos import practical
 from wcac_jax.algos.practical import PracticalConfig, PracticalState
-from wcac_jax.config import field, frozen_config, positive, positive_int
+from wcac_jax.config import field, frozen_config, one_of, positive, positive_int
 from wcac_jax.types import typed_key
+
+CONDITIONINGS = ("concat", "film")
 
 
 @frozen_config
@@ -56,6 +58,12 @@ class ConditionedConfig(PracticalConfig):
     learn_log_std: bool = field(True, "whether the policy's log-std is trained")
     pref_alpha: float = field(
         1.0, "concentration of the Dirichlet each episode's preference is drawn from", positive
+    )
+    conditioning: str = field(
+        "concat",
+        "how the networks take the preference: 'concat' (appended to the observation) or "
+        "'film' (appended, and also scaling and shifting every hidden layer)",
+        one_of(CONDITIONINGS),
     )
 
 
@@ -241,6 +249,17 @@ def make_preprocess(config: PracticalConfig, raw_size: int):
     return preprocess
 
 
+def conditioned_network(config: ConditionedConfig, obs_size: int, m: int):
+    """`(out, out_scale) -> Network` on `[obs + m]` inputs, as `config.conditioning` says:
+    `networks.tanh_mlp` on the concatenation, or `networks.film_tanh_mlp` conditioned on
+    its last `m` entries (the preference)."""
+    if config.conditioning == "film":
+        return lambda out, scale: networks.film_tanh_mlp(
+            obs_size, out, config.width, config.depth, scale, m
+        )
+    return lambda out, scale: networks.tanh_mlp(obs_size, out, config.width, config.depth, scale)
+
+
 def make_trainer(config: ConditionedConfig, env) -> runtime.Trainer:
     """Builds the pure `init`/`run`/`step` of the conditioned update for `env` (see the
     module docstring); `pref` arguments are ignored."""
@@ -249,13 +268,11 @@ def make_trainer(config: ConditionedConfig, env) -> runtime.Trainer:
     obs_size = raw_size + m
     j_ub = jnp.asarray(runtime.resolve_j_ub(config, env), jnp.float32)
     venv = runtime.vectorize(cenv)
+    net = conditioned_network(config, obs_size, m)
     policy = runtime.make_policy(
-        cenv,
-        lambda out: networks.tanh_mlp(obs_size, out, config.width, config.depth, 0.01),
-        config.log_std_init,
-        config.learn_log_std,
+        cenv, lambda out: net(out, 0.01), config.log_std_init, config.learn_log_std
     )
-    value_net = networks.tanh_mlp(obs_size, m, config.width, config.depth, 1.0)
+    value_net = net(m, 1.0)
     preprocess = make_preprocess(config, raw_size)
     parts = runtime.UpdateParts(
         config=config,
