@@ -47,7 +47,9 @@ from wcac_jax import protocols
 from wcac_jax.outputs import json_bytes, write_atomic
 
 # The ablation's variants: fields of the conditioned update changed from its defaults
-# (`ConditionedConfig()`), each a choice around the method (its direction, smooth_wc, stays).
+# (`ConditionedConfig()`), each a choice around the method (its direction, smooth_wc,
+# stays); `select`: `(K, env steps)`, each preference's best of the network's last K
+# policies (`wcac_jax.sweep.conditioned.choose_policies`), else the final network.
 VARIANTS: dict[str, dict] = {
     "default": {},
     "m32": {"num_minibatches": 32},
@@ -60,8 +62,17 @@ VARIANTS: dict[str, dict] = {
     "e10m32-alpha0.5": {"num_epochs": 10, "num_minibatches": 32, "pref_alpha": 0.5},
     "e10m32-w256": {"num_epochs": 10, "num_minibatches": 32, "width": 256},
     "e10m32-logstd-1": {"num_epochs": 10, "num_minibatches": 32, "log_std_init": -1.0},
+    "e10-logstd-1": {"num_epochs": 10, "log_std_init": -1.0},
+    "m32-logstd-1": {"num_minibatches": 32, "log_std_init": -1.0},
+    "m64-logstd-1": {"num_minibatches": 64, "log_std_init": -1.0},
+    "m32-logstd-1-film": {"num_minibatches": 32, "log_std_init": -1.0, "conditioning": "film"},
     "e10m32-mu10": {"num_epochs": 10, "num_minibatches": 32, "mu": 10.0},
     "e10m32-mu3": {"num_epochs": 10, "num_minibatches": 32, "mu": 3.0},
+    "e10m32-sel3": {"num_epochs": 10, "num_minibatches": 32, "select": (3, 81_920)},
+    "m32-logstd-1-sel3": {"num_minibatches": 32, "log_std_init": -1.0, "select": (3, 81_920)},
+    "m32-logstd-1-sel2": {"num_minibatches": 32, "log_std_init": -1.0, "select": (2, 81_920)},
+    "e20m32": {"num_epochs": 20, "num_minibatches": 32},
+    "e10m64": {"num_epochs": 10, "num_minibatches": 64},
     "e10m32-film": {"num_epochs": 10, "num_minibatches": 32, "conditioning": "film"},
     "e10m32-logstd-1-film": {
         "num_epochs": 10,
@@ -119,8 +130,11 @@ def ablation(results: str, protocol: str, env: str, variants, seeds) -> int:
             if os.path.isfile(os.path.join(out, "front.json")):
                 print(f"{out} is finished", flush=True)
                 continue
-            train = ConditionedConfig(**VARIANTS[variant])
-            config = protocol_sweep(env, protocol, seed, train)
+            changes = dict(VARIANTS[variant])
+            select = changes.pop("select", (1, 0))
+            config = protocol_sweep(
+                env, protocol, seed, ConditionedConfig(**changes), selection=select
+            )
             print(f"{out}: {VARIANTS[variant] or 'the defaults'}", flush=True)
             front = run_conditioned(config, out, resume=os.path.isdir(out), chunks=10)
             if front.get("interrupted"):

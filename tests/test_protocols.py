@@ -202,3 +202,31 @@ def test_protocol_refusals_exit_2(toy_protocol, extra, message, tmp_path, capsys
 def test_off_budget_needs_a_protocol(tmp_path, capsys):
     assert cli.main(["--env", "concave_bandit", "--off-budget", "--out", str(tmp_path)]) == 2
     assert "--off-budget needs --protocol" in capsys.readouterr().err
+
+
+def test_protocol_run_chooses_among_the_last_policies(toy_protocol, tmp_path):
+    from wcac_jax.algos import ConditionedConfig
+    from wcac_jax.sweep import run_conditioned
+    from wcac_jax.sweep.protocol import protocol_sweep
+
+    train = ConditionedConfig(
+        num_envs=8, rollout_steps=8, num_minibatches=4, width=16, depth=1
+    )  # 64 env steps per iteration: candidates at iterations 48 and 64
+    config = protocol_sweep("concave_bandit", "toy", 0, train, selection=(2, 1024))
+    front = run_conditioned(config, str(tmp_path / "run"), chunks=2)
+    record = front["selection"]
+    assert record["candidate_iterations"] == [48, 64]
+    returns = np.asarray(record["candidate_return"])  # [K, P, m], discounted at 0.99
+    assert returns.shape == (2, 5, 2) and record["returns"] == "discounted_return"
+    # each preference's choice is its candidate of least max_i p_i (z_i - J_i)
+    z = np.asarray(record["utopia"])
+    prefs = np.asarray([row["pref"] for row in front["prefs"]])
+    regret = np.max(prefs[None] * (z - returns), axis=-1)  # [K, P]
+    best = [48 if regret[0, p] < regret[1, p] else 64 for p in range(5)]
+    assert record["chosen_iteration"] == best
+    # the candidates' evaluation is counted: 2 candidates x 5 preferences x 2 episodes of 1
+    assert record["env_steps"] == 20
+    assert front["conditioned"]["eval_env_steps"] == 20 + 10
+    score = front["protocol"]
+    assert score["deviations"] == []
+    assert score["final_network"]["hv"] == pytest.approx(TOY.score(returns[-1])["hv"])

@@ -426,7 +426,7 @@ def protocol_config(args) -> SweepConfig:
             f"--total-steps with --protocol {args.protocol} trains off the protocol's budget: "
             "add --off-budget to do so on purpose"
         )
-    train = presets.protocol_preset(args.protocol, args.env)
+    train = presets.protocol_preset(args.protocol, args.env).config
     train = apply_config_flags(args, train, f"the {args.protocol} protocol's preset for {args.env}")
     options = {}
     if args.physics is not None:

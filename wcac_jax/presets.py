@@ -284,14 +284,30 @@ def env_defaults(env: str) -> Defaults:
     )
 
 
-# Each benchmark protocol's preset per task (`wcac_jax.protocols`): the conditioned
-# update's configuration that `--protocol NAME` trains on the task (one network for the
-# whole front, at the protocol's budget). A task without an entry trains the
-# conditioned update's defaults.
-PROTOCOL_PRESETS: dict[tuple[str, str], ConditionedConfig] = {}
+@dataclass(frozen=True)
+class ProtocolPreset:
+    """A benchmark protocol's run of one task (`wcac_jax.protocols`; `--protocol NAME`):
+    one conditioned network for the whole front, at the protocol's budget.
+
+    Attributes:
+      config: the conditioned update's configuration.
+      selection: `(select_last, select_every)`: each preference reports the best of the
+        network's last `select_last` policies, `select_every` env steps apart
+        (`wcac_jax.sweep.conditioned.choose_policies`); `(1, 0)`: the final network.
+      note: what the preset changes from the conditioned update's defaults, and why.
+    """
+
+    config: ConditionedConfig
+    selection: tuple[int, int] = (1, 0)
+    note: str = "the conditioned update's defaults"
 
 
-def protocol_preset(protocol: str, env: str) -> ConditionedConfig:
-    """The conditioned configuration `protocol`'s run of `env` trains (`PROTOCOL_PRESETS`,
-    else `ConditionedConfig()`)."""
-    return PROTOCOL_PRESETS.get((protocol, env), ConditionedConfig())
+# Each protocol's preset per task; a task without an entry trains `ProtocolPreset()`'s
+# defaults (the conditioned update's own, the final network reported).
+PROTOCOL_PRESETS: dict[tuple[str, str], ProtocolPreset] = {}
+
+
+def protocol_preset(protocol: str, env: str) -> ProtocolPreset:
+    """The preset `protocol`'s run of `env` trains (`PROTOCOL_PRESETS`, else the
+    conditioned update's defaults)."""
+    return PROTOCOL_PRESETS.get((protocol, env), ProtocolPreset(ConditionedConfig()))

@@ -229,8 +229,10 @@ def front_scores(front: dict) -> dict:
       `Protocol.score`'s values, and `protocol`, `task` (its published name), `returns`
       (the `front.json` field scored: `discounted_return` at the protocol's gamma, or
       the undiscounted `return`), `budget`, `env_steps_trained`, `eval_prefs`,
-      `eval_env_steps`, and `deviations`: one line per way the run departs from the
-      protocol (another budget, other evaluation episodes, preferences or episode
+      `eval_env_steps` (the choice's among the last policies included), `final_network`
+      (with such a choice, the final network's `hv` and `eu` on the choice's own
+      episodes; else `None`), and `deviations`: one line per way the run departs from
+      the protocol (another budget, other evaluation episodes, preferences or episode
       length); empty when it meets it.
     """
     config = front["config"]
@@ -268,6 +270,10 @@ def front_scores(front: dict) -> dict:
         deviations.append(
             f"returns discounted at {gamma}; the protocol's gamma is {protocol.gamma}"
         )
+    final = None
+    if "selection" in front:  # the network's final policy alone, on the choice's episodes
+        candidates = np.asarray(front["selection"]["candidate_return"], np.float64)
+        final = {k: protocol.score(candidates[-1])[k] for k in ("hv", "eu")}
     return {
         "protocol": protocol.name,
         "task": task.published,
@@ -279,5 +285,6 @@ def front_scores(front: dict) -> dict:
         "env_steps_trained": trained,
         "eval_prefs": int(len(prefs)),
         "eval_env_steps": int(front.get("conditioned", {}).get("eval_env_steps", 0)),
+        "final_network": final,
         "deviations": deviations,
     }

@@ -10,6 +10,13 @@ bit-identical however it is chunked), on a sweep whose one row is the simplex's 
 `front.json`, `front.csv`, `front.png` are rewritten with the network evaluated at every
 preference of the asked-for sweep (`front.json["conditioned"]` says so, with the
 evaluation's own env steps and seconds). `env_steps_total` is the training's alone.
+
+With `select_last = K > 1` the network's last `K` policies (`select_every` env steps
+apart) are kept, and each preference reports the one `choose_policies` picks for it on
+episodes of their own, evaluated afresh on the reported episodes
+(`front.json["selection"]` records the choice; the candidates' evaluation counts in the
+evaluation's env steps): the network's own choice among its recent selves, as
+`wcac_jax.selection` makes a sweep's.
 """
 
 from __future__ import annotations
@@ -24,7 +31,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from wcac_jax import algos, outputs, protocols, runtime
+from wcac_jax import algos, outputs, protocols, runtime, selection
 from wcac_jax.algos import conditioned
 from wcac_jax.outputs import summarize, write_outputs
 from wcac_jax.sweep.config import SweepConfig, SweepError, default_hv_ref, make_env, validate_prefs
@@ -34,13 +41,14 @@ from wcac_jax.sweep.run import run_sweep
 
 def training_sweep(config: SweepConfig) -> SweepConfig:
     """The one-row sweep that trains `config`'s network: its preferences replaced by the
-    simplex's centre, its own final policy reported."""
+    simplex's centre (with `select_last > 1` its last policies are kept as the
+    candidates `choose_policies` chooses among)."""
     if not isinstance(config.train, algos.ConditionedConfig):
         raise SweepError(
             f"a conditioned front needs the conditioned update, got {algos.kind(config.train)}"
         )
     m = len(config.prefs[0])
-    return dataclasses.replace(config, prefs=((1.0 / m,) * m,), select_last=1, select_every=0)
+    return dataclasses.replace(config, prefs=((1.0 / m,) * m,))
 
 
 def policy_at(run: LoadedSweep, pref):
@@ -63,7 +71,11 @@ def evaluate_at(
     return jax.device_get(program(state, keys, prefs))
 
 
-def _evaluate_program(run: LoadedSweep, episodes: int, gamma: float | None):
+def _evaluate_program(
+    run: LoadedSweep, episodes: int, gamma: float | None, per_pref_state: bool = False
+):
+    """`(state, keys [K], prefs [K, m]) -> metrics [K, ...]`: one state for every
+    preference, or with `per_pref_state` a state per preference (leaves `[K, ...]`)."""
     train = run.config.train_config()
     measured = train if gamma is None else train.replace(gamma=gamma)
     evaluate = conditioned.make_evaluate_at(measured, run.env, episodes, run.trainer)
@@ -72,7 +84,58 @@ def _evaluate_program(run: LoadedSweep, episodes: int, gamma: float | None):
     def one(state, key, pref):
         return {**evaluate(state, key, pref), **estimate(state, key, pref)}
 
-    return jax.jit(jax.vmap(one, in_axes=(None, 0, 0)))
+    return jax.jit(jax.vmap(one, in_axes=(0 if per_pref_state else None, 0, 0)))
+
+
+def measured_returns(config: SweepConfig) -> str:
+    """The evaluation's returns a front is judged on: the discounted ones under a protocol
+    that discounts, else the undiscounted ones (`eval/...`)."""
+    if config.protocol is not None and protocols.get(config.protocol).gamma < 1.0:
+        return "eval/discounted_return"
+    return "eval/return"
+
+
+def choose_policies(config: SweepConfig, run: LoadedSweep, prefs, gamma: float) -> tuple:
+    """Each preference's policy chosen among the network's last `config.select_last`
+    policies (`run.candidates`), as `wcac_jax.selection` chooses a sweep's: every
+    candidate evaluated at every preference on `config.eval_episodes` episodes of their
+    own (keys distinct from the reported evaluation's), and the candidate of least
+    weighted-Chebyshev regret (the run's criterion, `selection.criterion`) on the returns
+    the front is judged on (`measured_returns`) chosen per preference.
+
+    Returns:
+      `(states, record)`: the chosen states (leaves `[P, ...]`) and what `front.json`
+      records of the choice (`selection`).
+    """
+    prefs = jnp.asarray(np.asarray(prefs, np.float32))
+    program = _evaluate_program(run, config.eval_episodes, gamma)
+    keys = jax.random.split(jax.random.key(config.seed + (1 << 29)), prefs.shape[0])
+    found = [
+        jax.device_get(program(jax.tree.map(lambda x, k=k: x[k, 0], run.candidates), keys, prefs))
+        for k in range(len(config.candidate_iterations))
+    ]
+    key = measured_returns(config)
+    returns = np.stack([f[key] for f in found])  # [K, P, m]
+    length = np.stack([f["eval/length"] for f in found])  # [K, P]
+    by = selection.criterion(config.train)
+    index, z, regrets = selection.choose(
+        jnp.asarray(returns), prefs, by.margin, by.min_spread, by.score, by.mu
+    )
+    index = np.asarray(index)
+    states = jax.tree.map(lambda x: jnp.asarray(np.asarray(x)[index, 0]), run.candidates)
+    iterations = config.candidate_iterations
+    record = {
+        "rule": selection.rule(by.score),
+        "returns": key.removeprefix("eval/"),
+        "candidate_iterations": list(iterations),
+        "utopia": np.asarray(z).tolist(),
+        "chosen_iteration": [iterations[int(k)] for k in index],
+        "candidate_return": returns.tolist(),
+        "candidate_length": length.tolist(),
+        "regret": np.asarray(regrets).tolist(),
+        "env_steps": int(np.rint(config.eval_episodes * length.sum())),
+    }
+    return states, record
 
 
 def run_conditioned(
@@ -125,12 +188,21 @@ def _run(config, out, resume, chunks, progress, write) -> dict:
     run = load_sweep(out)
     t0 = time.perf_counter()
     gamma = eval_gamma(config)
-    evaluation = evaluate_at(
-        run, prefs, config.eval_episodes, seed=config.seed + (1 << 30), gamma=gamma
-    )
+    seed = config.seed + (1 << 30)
+    choice = None
+    if config.select_last > 1:
+        states, choice = choose_policies(config, run, prefs, gamma)
+        program = _evaluate_program(run, config.eval_episodes, gamma, per_pref_state=True)
+        keys = jax.random.split(jax.random.key(seed), prefs.shape[0])
+        evaluation = jax.device_get(program(states, keys, jnp.asarray(prefs, jnp.float32)))
+    else:
+        evaluation = evaluate_at(run, prefs, config.eval_episodes, seed=seed, gamma=gamma)
     eval_s = time.perf_counter() - t0
     front = _front(config, run, prefs, evaluation, trained, eval_s)
     front["eval_gamma"] = gamma
+    if choice is not None:
+        front["selection"] = choice
+        front["conditioned"]["eval_env_steps"] += choice["env_steps"]
     if config.protocol is not None:
         front["protocol"] = protocols.front_scores(front)
     if write:

@@ -31,6 +31,9 @@ class LoadedSweep(NamedTuple):
       chosen: with `config.select_last > 1` and the sweep finished, each preference's
         reported policy (`wcac_jax.selection`, leaves `[P, ...]`), the one `front.json`
         evaluated; else `None` (the reported policy is `state`'s).
+      candidates: with `config.select_last > 1` and the sweep finished, every candidate
+        policy the choice was made among (leaves `[K, P, ...]`, at
+        `config.candidate_iterations`); else `None`.
     """
 
     config: SweepConfig
@@ -39,6 +42,7 @@ class LoadedSweep(NamedTuple):
     state: UpdateState
     metrics: dict
     chosen: UpdateState | None = None
+    candidates: UpdateState | None = None
 
     def policy_at(self, pref):
         """`obs [..., obs] -> action`, the mean action at the preference `pref` `[m]` of a
@@ -105,10 +109,11 @@ def load_sweep(out: str) -> LoadedSweep:
     restored = checkpoint.restore(manager, template)
     state = jax.tree.map(lambda x: jnp.asarray(x[:n_prefs]), restored["state"])
     metrics = with_env_steps(config.train_config(), restored["metrics"])
-    chosen = None
+    chosen = candidates = None
     if pool is not None and int(restored["state"].iteration[0]) >= n_iters:
         pool.tree = restored["selection"]
         # as the sweep chose: over every row, by the run's own criterion
         picked = pool.choose(np.asarray(prefs), selection.criterion(config.train))[3]
         chosen = jax.tree.map(lambda x: jnp.asarray(x[:n_prefs]), picked)
-    return LoadedSweep(config, env, trainer, state, metrics, chosen)
+        candidates = pool.treedef.unflatten([x[:, :n_prefs] for x in pool.tree["states"]])
+    return LoadedSweep(config, env, trainer, state, metrics, chosen, candidates)

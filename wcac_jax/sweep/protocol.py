@@ -19,6 +19,7 @@ def protocol_sweep(
     train: algos.ConditionedConfig | None = None,
     total_steps: int | None = None,
     env_options: dict | None = None,
+    selection: tuple[int, int] | None = None,
 ) -> SweepConfig:
     """The `SweepConfig` of `env` under `protocol` (see the module docstring).
 
@@ -32,6 +33,8 @@ def protocol_sweep(
       env_options: the environment's options over the protocol's (its episode length and
         MuJoCo's C engine, where the environment has those options, and the
         environment's default model).
+      selection: `(select_last, select_every)`, the choice among the network's last
+        policies (default: the preset's).
 
     Raises:
       SweepError: an unknown protocol, a task not in it, or a budget below one iteration.
@@ -41,7 +44,9 @@ def protocol_sweep(
         task = spec.task(env)
     except ValueError as err:
         raise SweepError(str(err)) from None
-    train = presets.protocol_preset(protocol, env) if train is None else train
+    preset = presets.protocol_preset(protocol, env)
+    train = preset.config if train is None else train
+    select_last, select_every = preset.selection if selection is None else selection
     if not isinstance(train, algos.ConditionedConfig):
         raise SweepError(f"a protocol's run trains the conditioned update, got {algos.kind(train)}")
     budget = spec.budget(task.num_objectives) if total_steps is None else total_steps
@@ -69,6 +74,8 @@ def protocol_sweep(
         steps_per_pref=(budget // per) * per,  # whole iterations, at most the budget
         seed=seed,
         eval_episodes=task.eval_episodes,
+        select_last=select_last,
+        select_every=select_every,
         protocol=protocol,
     )
 
