@@ -228,7 +228,7 @@ _ROLLOUTS: dict = {}
 
 
 def _rollout(name):
-    """Our states for `name`'s rollout source, computed once per session."""
+    """Our states for `name`'s rollout source, computed once per test run."""
     source, n_steps = CASES[name]
     if source not in _ROLLOUTS:
         _ROLLOUTS[source] = own_states(source, N_ENVS, n_steps, action_scale=1.5)
