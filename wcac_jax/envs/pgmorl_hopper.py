@@ -53,7 +53,7 @@ class HopperPGMORL(PGMORLTask):
 
     def _declare(self, t: float) -> None:
         self._init_z = float(self.mj_model.qpos0[1])  # z0 = 1.25, the height term's origin
-        # utopia, per step times the time limit: forward 15 and height 15 (10 m/s, or a
+        # utopia, per step times the time limit: forward 15 and height 15 (9.3 m/s, or a
         # mean torso height 1.17 m above the start; a front with COLA's hypervolume
         # 2.11e7 reaches about 10 per step on each axis)
         # hypervolume reference, per step times the time limit: forward -2 (no physical
