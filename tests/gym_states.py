@@ -32,19 +32,20 @@ def gymnasium_states(n_states, seed=0, float32_actions=False):
     return genv, states, actions
 
 
-def own_states(name, n_envs, n_steps, seed=0):
+def own_states(name, n_envs, n_steps, seed=0, action_scale=1.0):
     """Float64 states `qpos [n, nq]`, `qvel [n, nv]` and float32 actions `[n, nu]`
     (`n = n_envs * n_steps`) of our environment `name` on MuJoCo's C engine: random-action
     rollouts without resets (an agent that fell keeps moving, so states past the health
     limits appear), each step's exact start state and action; actions uniform in the
-    task's action range (`action_bound`, 1 unless the task declares its own)."""
+    task's action range (`action_bound`, 1 unless the task declares its own; a half-width
+    or one per action) times `action_scale` (above 1: some actions outside the range)."""
     import jax
 
     from wcac_jax import envs
 
     env = envs.make(name, engine="mujoco")
     nu = env.action_size
-    bound = getattr(env, "action_bound", 1.0)
+    bound = action_scale * np.asarray(getattr(env, "action_bound", 1.0), np.float32)
 
     @jax.jit
     def rollout(key):

@@ -173,6 +173,11 @@ def test_gaussian_policy_interface():
     np.testing.assert_array_equal(policy.to_env(jnp.array([2.0, -3.0, 0.5])), [1.0, -1.0, 0.5])
     boxed = networks.gaussian_policy(networks.paper_network(2, 2, 4, 1), 2, -1.0, True, 0.4)
     np.testing.assert_allclose(boxed.to_env(jnp.array([2.0, -3.0, 0.5])), [0.4, -0.4, 0.2])
+    # one half-width per action (PGMORL's hopper: 2, 2, 4): 2 * 1, 2 * -1, 4 * 0.5
+    per_action = networks.gaussian_policy(
+        networks.paper_network(2, 3, 4, 1), 3, -1.0, True, (2.0, 2.0, 4.0)
+    )
+    np.testing.assert_allclose(per_action.to_env(jnp.array([2.0, -3.0, 0.5])), [2.0, -2.0, 2.0])
     # entropy of N(mu, e^-2 I) in 2-D: 2 * (-1 + 0.5 log(2 pi e))
     assert float(policy.entropy(dist)[0]) == pytest.approx(
         2 * (-1 + 0.5 * math.log(2 * math.pi * math.e)), rel=1e-6

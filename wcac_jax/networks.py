@@ -18,6 +18,7 @@ import chex
 import flax.linen as nn
 import jax
 import jax.numpy as jnp
+import numpy as np
 from flax import struct
 
 NETWORK_KINDS = ("paper", "mlp")
@@ -301,14 +302,15 @@ def gaussian_policy(
     action_size: int,
     log_std_init: float,
     learn_log_std: bool = True,
-    action_bound: float = 1.0,
+    action_bound: float | tuple[float, ...] = 1.0,
 ) -> Policy:
     """A diagonal Gaussian with the network's `action_size` outputs as mean and a
     state-independent log-std; `dist = (mean [..., act], log_std [act])`.
 
     The policy acts in `[-1, 1]^act`; `to_env` clips there and scales by `action_bound`,
-    the half-width of the environment's own action box (humanoid's is 0.4), so the
-    environment receives actions in its own space.
+    the half-width of the environment's own action box (humanoid's is 0.4; a tuple gives
+    one per action dimension, e.g. PGMORL's hopper's `(2, 2, 4)`), so the environment
+    receives actions in its own space.
 
     The trainable parameters of the policy, all of which the actor's normalised step
     covers, are the network's trainable parameters and, if `learn_log_std`, the log-std.
@@ -342,9 +344,11 @@ def gaussian_policy(
     )
 
 
-def _to_box(bound: float) -> Callable[[chex.Array], chex.Array]:
-    """`action -> bound * clip(action, -1, 1)` (no multiplication when `bound` is 1)."""
-    if bound == 1.0:
+def _to_box(bound: float | tuple[float, ...]) -> Callable[[chex.Array], chex.Array]:
+    """`action [..., act] -> bound * clip(action, -1, 1)`, `bound` a scalar or `[act]` (no
+    multiplication when every entry is 1)."""
+    bound = np.asarray(bound, np.float32)
+    if np.all(bound == 1.0):
         return lambda action: jnp.clip(action, -1.0, 1.0)
     return lambda action: bound * jnp.clip(action, -1.0, 1.0)
 

@@ -180,11 +180,11 @@ def _mo_gymnasium_task(
     why: str | None = None,
     steps_per_pref: int = 1_000_000,
 ) -> Defaults:
-    """An MO-Gymnasium MuJoCo task's default: `config` at `steps_per_pref` env steps per
-    preference (1M unless the task needs more, and `why` says so) on MuJoCo's C engine, its
-    final policies. By default Walker2d's update, not tuned on the task, and the note says
-    so; a tuned `config` differs from it by its initial log-std, which the note names, with
-    `why`."""
+    """A MuJoCo task's default (MO-Gymnasium's, PGMORL's or COLA's): `config` at
+    `steps_per_pref` env steps per preference (1M unless the task needs more, and `why`
+    says so) on MuJoCo's C engine, its final policies. By default Walker2d's update, not
+    tuned on the task, and the note says so; a tuned `config` differs from it by its
+    initial log-std, which the note names, with `why`."""
     budget = f"{steps_per_pref / 1e6:g}M env steps per preference on MuJoCo's C engine"
     if config is None:
         note = f"the practical preset at {budget}, as Walker2d's; not yet tuned for {name}"
@@ -240,6 +240,21 @@ ENV_DEFAULTS: dict[str, Defaults] = {
         "at log-std 0 its forward end settles on a slow gait or a fast one by chance; at -1 "
         "it finds the fast one",
     ),
+    # PGMORL's and COLA's tasks: Walker2d's update and budget, untuned, as a new task gets
+    **{
+        name: _mo_gymnasium_task(name)
+        for name in (
+            "walker2d-pgmorl",
+            "halfcheetah-pgmorl",
+            "halfcheetah-cola",
+            "hopper-pgmorl",
+            "hopper3-pgmorl",
+            "ant-pgmorl",
+            "ant3-cola",
+            "swimmer-pgmorl",
+            "humanoid-pgmorl",
+        )
+    },
     "concave_bandit": Defaults(
         "presets.BANDIT",
         BANDIT,

@@ -159,8 +159,9 @@ def make_policy(
     learn_log_std: bool,
 ) -> networks.Policy:
     """The actor for `env`'s action space: a Gaussian for continuous actions in
-    `[-1, 1]^act` scaled to the environment's box (`env.action_bound`, default 1), a
-    softmax over `env.num_actions` for discrete ones.
+    `[-1, 1]^act` scaled to the environment's box (`env.action_bound`: a half-width, or
+    one per action dimension; default 1), a softmax over `env.num_actions` for discrete
+    ones.
 
     Args:
       make_net: `out -> network` with `out` outputs (the update's choice of network).
@@ -171,7 +172,7 @@ def make_policy(
     net = make_net(out)
     if num_actions:
         return networks.categorical_policy(net)
-    bound = float(getattr(env, "action_bound", 1.0))
+    bound = getattr(env, "action_bound", 1.0)
     return networks.gaussian_policy(net, out, log_std_init, learn_log_std, bound)
 
 

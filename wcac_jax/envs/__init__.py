@@ -49,6 +49,15 @@ _REGISTRY: dict[str, str] = {
     "ant": "wcac_jax.envs.ant:Ant",
     "ant-2obj": "wcac_jax.envs.ant:AntTwoObjectives",
     "humanoid": "wcac_jax.envs.humanoid:Humanoid",
+    "walker2d-pgmorl": "wcac_jax.envs.pgmorl_walker2d:Walker2dPGMORL",
+    "halfcheetah-pgmorl": "wcac_jax.envs.pgmorl_halfcheetah:HalfCheetahPGMORL",
+    "halfcheetah-cola": "wcac_jax.envs.pgmorl_halfcheetah:HalfCheetahCOLA",
+    "hopper-pgmorl": "wcac_jax.envs.pgmorl_hopper:HopperPGMORL",
+    "hopper3-pgmorl": "wcac_jax.envs.pgmorl_hopper:Hopper3PGMORL",
+    "ant-pgmorl": "wcac_jax.envs.pgmorl_ant:AntPGMORL",
+    "ant3-cola": "wcac_jax.envs.pgmorl_ant:Ant3COLA",
+    "swimmer-pgmorl": "wcac_jax.envs.pgmorl_swimmer:SwimmerPGMORL",
+    "humanoid-pgmorl": "wcac_jax.envs.pgmorl_humanoid:HumanoidPGMORL",
 }
 
 
