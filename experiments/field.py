@@ -16,7 +16,7 @@ Two commands, writing under `--results` (default `experiments/results/field`):
   into `<results>/ablation/P/T/V/seedS`, one run at a time in this process; finished
   runs are kept, unfinished ones continued. `ablation-table` writes `ablation.json` and
   `ablation.md`: per task and variant each seed's HV and EU, their mean and interval,
-  and the mean's ratio to the `default` variant's.
+  and the ratio of its mean to the `default` variant's on the seeds both ran.
 - `table`: reads every `<results>/P/T/seedS/front.json` and `<results>/published.json`
   and writes `table.json` and `table.md`: per protocol and task, each seed's protocol HV
   and EU (recomputed from the front's returns by `protocols.front_scores`, and checked
@@ -177,21 +177,36 @@ def ablation_summary(results: str) -> dict:
                 "eu_mean": float(np.mean([s["eu"] for s in seeds])),
             }
         )
-    base = {(r["protocol"], r["task"]): r["hv"]["mean"] for r in rows if r["variant"] == "default"}
+    # each variant against the defaults on the seeds both ran (paired)
+    base = {
+        (r["protocol"], r["task"]): {s["seed"]: s["hv"] for s in r["seeds"]}
+        for r in rows
+        if r["variant"] == "default"
+    }
     for r in rows:
-        ref = base.get((r["protocol"], r["task"]))
-        r["ratio_to_default"] = None if ref is None else r["hv"]["mean"] / ref
+        ref = base.get((r["protocol"], r["task"]), {})
+        common = [s for s in r["seeds"] if s["seed"] in ref]
+        r["paired_seeds"] = [s["seed"] for s in common]
+        r["ratio_to_default"] = (
+            float(np.mean([s["hv"] for s in common]) / np.mean([ref[s["seed"]] for s in common]))
+            if common
+            else None
+        )
     return {"rows": rows}
 
 
 def write_ablation(summary: dict, results: str) -> None:
     lines = [
         "| protocol | task | variant | changes | seeds | HV mean [95%] | EU mean | vs default "
-        "| wall s per seed |",
+        "(same seeds) | wall s per seed |",
         "|---|---|---|---|---|---|---|---|---|",
     ]
     for r in summary["rows"]:
-        ratio = "—" if r["ratio_to_default"] is None else f"{r['ratio_to_default']:.2f}"
+        ratio = (
+            "—"
+            if r["ratio_to_default"] is None
+            else f"{r['ratio_to_default']:.2f} ({', '.join(map(str, r['paired_seeds']))})"
+        )
         lo, hi = r["hv"]["ci95"]
         lines.append(
             f"| {r['protocol']} | {r['task']} | {r['variant']} | {r['changes']} "
