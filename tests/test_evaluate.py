@@ -101,6 +101,7 @@ def test_sweep_evaluated_in_mo_gymnasium_agrees_with_the_project(sweep_run, caps
     assert result["mo_gymnasium_kwargs"] == {"max_episode_steps": LENGTH, "reset_noise_scale": 0}
     assert result["policies"] == "chosen"
     assert result["episodes"] == 1 and result["project_episodes"] == 2
+    assert result["project_source"] == "front.json"
     with open(os.path.join(sweep_run, "front.json")) as f:
         front = json.load(f)
     assert [row["pref"] for row in result["prefs"]] == [row["pref"] for row in front["prefs"]]
@@ -110,6 +111,20 @@ def test_sweep_evaluated_in_mo_gymnasium_agrees_with_the_project(sweep_run, caps
         assert 1 <= row["episode_length"] <= LENGTH
     assert result["gamma"] == 0.99  # the training's: an ordinary sweep records no other
     assert "protocol" not in result
+    _assert_agrees(result)
+
+
+def test_the_projects_evaluation_rerun_with_more_episodes(sweep_run):
+    """Without reset noise every episode is the same one, so the project's evaluation of
+    the reported policies re-run on 3 fresh episodes gives `front.json`'s numbers again."""
+    result = _evaluate(sweep_run, "--episodes", "1", "--project-episodes", "3")
+    assert result["project_episodes"] == 3
+    assert result["project_source"].startswith("re-evaluated")
+    with open(os.path.join(sweep_run, "front.json")) as f:
+        front = json.load(f)
+    for row, theirs in zip(result["prefs"], front["prefs"], strict=True):
+        for kind in ("return", "discounted_return", "episode_length"):
+            np.testing.assert_allclose(row["project"][kind], theirs[kind], rtol=1e-6)
     _assert_agrees(result)
 
 
@@ -184,6 +199,7 @@ def test_refusals_write_nothing(sweep_run, tmp_path, capsys):
         ([sweep_run, "--prefs", "0.5,0.5"], "no policy at the preference"),
         ([sweep_run, "--prefs", "1,0,0"], "2 entries"),
         ([sweep_run, "--episodes", "0"], "--episodes must be at least 1"),
+        ([sweep_run, "--project-episodes", "0"], "--project-episodes must be at least 1"),
     ]
     for run, message in cases:
         out = tmp_path / "out.json"

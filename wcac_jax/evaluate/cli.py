@@ -61,6 +61,14 @@ def parser() -> argparse.ArgumentParser:
         help="episodes per preference (default: the run's evaluation episodes)",
     )
     p.add_argument(
+        "--project-episodes",
+        type=int,
+        default=None,
+        help="re-run the project's own evaluation with this many fresh episodes per "
+        "preference, instead of reading the run's (front.json's): both sides' means then "
+        "carry little noise",
+    )
+    p.add_argument(
         "--prefs",
         default=None,
         help="preferences to evaluate, e.g. '1,0;0.5,0.5' (default: the run's; a sweep of one "
@@ -90,8 +98,12 @@ def _parse_prefs(text: str) -> list[list[float]]:
 
 def _refusal(args) -> str | None:
     """Why the command may not run (one line), before anything is loaded; or `None`."""
-    if args.episodes is not None and args.episodes < 1:
-        return f"--episodes must be at least 1, got {args.episodes}"
+    for flag, value in (
+        ("--episodes", args.episodes),
+        ("--project-episodes", args.project_episodes),
+    ):
+        if value is not None and value < 1:
+            return f"{flag} must be at least 1, got {value}"
     if not os.path.isdir(args.run):
         return f"no run in {args.run!r} (no such directory)"
     if os.path.exists(args.out) and not args.overwrite:
@@ -135,7 +147,7 @@ def main(argv=None) -> int:
     t0 = time.perf_counter()
     try:
         prefs = None if args.prefs is None else _parse_prefs(args.prefs)
-        target = reference.load_target(args.run, prefs)
+        target = reference.load_target(args.run, prefs, args.project_episodes)
         make_env = reference.make_reference_env(target)
     except ValueError as err:  # EvaluationError, a bad --prefs
         print(f"error: {err}", file=sys.stderr)
@@ -162,10 +174,11 @@ def _version(name: str) -> str | None:
 def _summary(result: dict, out: str) -> str:
     """One line: what ran and how far apart the two evaluations are."""
     largest = result["agreement"]["return"]["largest_difference"]
+    n = len(result["prefs"])
     z = largest["z"]
     apart = "" if z is None else f" ({abs(z):.1f} standard errors)"
     return (
-        f"wrote {out}: {len(result['prefs'])} preferences x {result['episodes']} episodes in "
+        f"wrote {out}: {n} preference{'s' * (n != 1)} x {result['episodes']} episodes in "
         f"{result['mo_gymnasium_id']}; largest difference of mean returns from the project's "
         f"{largest['difference']:+.4g} at {largest['pref']}{apart}"
     )

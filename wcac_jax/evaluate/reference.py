@@ -24,15 +24,18 @@ from __future__ import annotations
 
 import json
 import os
+import sys
+import tempfile
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 
 import jax
 import numpy as np
 
-from wcac_jax import envs, protocols
+from wcac_jax import algos, envs, protocols
 from wcac_jax.algos import ConditionedConfig
 from wcac_jax.evaluate import numpy_policy
+from wcac_jax.sweep.conditioned import evaluate_at
 from wcac_jax.sweep.config import SweepConfig, SweepError
 from wcac_jax.sweep.load import load_sweep
 
@@ -41,6 +44,9 @@ MO_GYMNASIUM_IDS: dict[str, str] = {task.env: task.reference for task in protoco
 # a run's environment options that MO-Gymnasium's environment takes as they are
 PASSED_OPTIONS = ("reset_noise_scale",)
 RESULT_NAME = "evaluation_mo_gymnasium.json"
+# the project's evaluation re-run with more episodes draws them from this key, not the
+# run's own evaluation's (`seed + 2^30`)
+REEVALUATION_SEED = 12345
 
 
 class EvaluationError(ValueError):
@@ -66,6 +72,8 @@ class Target:
       project: per preference the project's `{"return", "discounted_return",
         "episode_length"}`.
       project_episodes: the episodes of the project's means.
+      project_source: where the project's numbers come from (`front.json`, or
+        re-evaluated).
       gamma: the discount of both evaluations' `discounted_return`.
       protocol: the run's protocol name, or `None`.
       config: the run's configuration (`front.json["config"]`) and `env_steps_total`.
@@ -82,6 +90,7 @@ class Target:
     policy_at: tuple[numpy_policy.NumpyPolicy, ...]
     project: tuple[dict, ...]
     project_episodes: int
+    project_source: str
     gamma: float
     protocol: str | None
     config: dict
@@ -132,9 +141,13 @@ def _project(row: dict) -> dict:
     return {k: row[k] for k in ("return", "discounted_return", "episode_length")}
 
 
-def load_target(run: str, prefs: Iterable | None = None) -> Target:
+def load_target(run: str, prefs: Iterable | None = None, project_episodes: int | None = None):
     """The policies a finished run reports, at `prefs` `[P, m]` (default: the run's own;
-    for an ordinary sweep a subset of them, for a conditioned network any).
+    for an ordinary sweep a subset of them, for a conditioned network any), beside the
+    project's evaluation of them: `front.json`'s (for a conditioned network at a
+    preference its front did not evaluate, its evaluation there with the run's episodes
+    and seed), or with `project_episodes` the project's evaluation re-run with that many
+    fresh episodes per preference (seed `REEVALUATION_SEED`).
 
     Raises:
       EvaluationError: no run, an unfinished one, a task with no MO-Gymnasium v5
@@ -167,24 +180,37 @@ def load_target(run: str, prefs: Iterable | None = None) -> Target:
         project.append(None if row is None else _project(row))
     gamma = float(front.get("eval_gamma", config.train.gamma))
     if conditioned:
-        state = _row(loaded.state, 0)
+        states = None
         policies = tuple(
-            numpy_policy.from_state(train, loaded.trainer, loaded.env, state, pref=p) for p in asked
+            numpy_policy.from_state(train, loaded.trainer, loaded.env, _row(loaded.state, 0), p)
+            for p in asked
         )
-        if missing:  # the project evaluates its network at those preferences now
-            project = _evaluate_project(loaded, config, asked, missing, gamma, project)
     else:
         if missing:
             bad = [asked[i].tolist() for i in missing]
             raise EvaluationError(f"the run has no policy at the preference(s) {bad}")
-        states = loaded.chosen if loaded.chosen is not None else loaded.state
-        index = {tuple(np.round(p, 6)): i for i, p in enumerate(config.prefs)}
-        policies = tuple(
-            numpy_policy.from_state(
-                train, loaded.trainer, loaded.env, _row(states, index[tuple(np.round(p, 6))])
-            )
+        reported = loaded.chosen if loaded.chosen is not None else loaded.state
+        index = [
+            {tuple(np.round(p, 6)): i for i, p in enumerate(config.prefs)}[tuple(np.round(p, 6))]
             for p in asked
+        ]
+        states = jax.tree.map(lambda leaf: leaf[np.asarray(index)], reported)
+        policies = tuple(
+            numpy_policy.from_state(train, loaded.trainer, loaded.env, _row(states, i))
+            for i in range(len(asked))
         )
+    episodes, source = config.eval_episodes, "front.json"
+    if project_episodes is not None:  # every preference, on fresh episodes
+        episodes, source = project_episodes, f"re-evaluated, seed {REEVALUATION_SEED}"
+        project = _evaluate_project(loaded, asked, states, episodes, REEVALUATION_SEED, gamma)
+    elif missing:  # the conditioned network where its front was not evaluated
+        found = _evaluate_project(
+            loaded, asked[missing], None, episodes, config.seed + (1 << 30), gamma
+        )
+        project = list(project)
+        for j, i in enumerate(missing):
+            project[i] = found[j]
+        source = "front.json; the others evaluated with the run's episodes and seed"
     return Target(
         run=run,
         env=config.env,
@@ -196,7 +222,8 @@ def load_target(run: str, prefs: Iterable | None = None) -> Target:
         prefs=asked,
         policy_at=policies,
         project=tuple(project),
-        project_episodes=config.eval_episodes,
+        project_episodes=episodes,
+        project_source=source,
         gamma=gamma,
         protocol=config.protocol,
         config={**front["config"], "env_steps_total": front.get("env_steps_total")},
@@ -208,37 +235,44 @@ def _row(states, i: int):
     return jax.tree.map(lambda leaf: leaf[i], states)
 
 
-def _evaluate_project(loaded, config, prefs, missing, gamma, project) -> list:
-    """`project` with the conditioned network's own evaluation at `prefs[missing]` (the
-    episodes, seed and discount of the run's)."""
-    from wcac_jax.sweep.conditioned import evaluate_at
+def _evaluate_project(loaded, prefs, states, episodes: int, seed: int, gamma: float) -> list:
+    """The project's own evaluation (`runtime.make_evaluate`) of `episodes` episodes per
+    preference, at `prefs` `[P, m]`: of the conditioned network (`states` `None`), or of
+    an ordinary sweep's `states` (leaves `[P, ...]`, one per preference).
 
-    found = evaluate_at(
-        loaded, prefs[missing], config.eval_episodes, seed=config.seed + (1 << 30), gamma=gamma
-    )
-    project = list(project)
-    for j, i in enumerate(missing):
-        project[i] = {
-            "return": np.asarray(found["eval/return"][j]).tolist(),
-            "discounted_return": np.asarray(found["eval/discounted_return"][j]).tolist(),
-            "episode_length": float(found["eval/length"][j]),
+    Returns:
+      per preference `{"return", "discounted_return", "episode_length"}`.
+    """
+    if states is None:
+        found = evaluate_at(loaded, prefs, episodes, seed=seed, gamma=gamma)
+    else:
+        train = loaded.config.train_config()
+        evaluate = algos.make_evaluate(train, loaded.env, episodes, loaded.trainer)
+        keys = jax.random.split(jax.random.key(seed), len(prefs))
+        found = jax.device_get(jax.jit(jax.vmap(evaluate))(states, keys))
+    return [
+        {
+            "return": np.asarray(found["eval/return"][i]).tolist(),
+            "discounted_return": np.asarray(found["eval/discounted_return"][i]).tolist(),
+            "episode_length": float(found["eval/length"][i]),
         }
-    return project
+        for i in range(len(prefs))
+    ]
 
 
-def run_episodes(make_env: Callable, policy, episodes: int, seed: int, gamma: float) -> dict:
-    """`episodes` episodes of `policy`'s deterministic action, episode `k` in its own
-    environment from `reset(seed=seed + k)`, all stepped together (one policy call per
+def run_episodes(running: list, policy, seed: int, gamma: float) -> dict:
+    """One episode of `policy`'s deterministic action in each environment of `running`,
+    episode `k` from `reset(seed=seed + k)`, all stepped together (one policy call per
     step for every episode still running).
 
     Args:
-      make_env: `() -> ` a new MO-Gymnasium environment.
+      running: `K` MO-Gymnasium environments.
       policy: a `numpy_policy.NumpyPolicy`.
 
     Returns:
       `{"return": [K, m], "discounted_return": [K, m], "length": [K]}` (float64).
     """
-    running = [make_env() for _ in range(episodes)]
+    episodes = len(running)
     obs = np.stack([env.reset(seed=seed + k)[0] for k, env in enumerate(running)])
     m = int(running[0].unwrapped.reward_dim)
     ret = np.zeros((episodes, m))
@@ -256,8 +290,6 @@ def run_episodes(make_env: Callable, policy, episodes: int, seed: int, gamma: fl
             length[k] += 1
             alive[k] = not (terminated or truncated)
         discount *= gamma
-    for env in running:
-        env.close()
     return {"return": ret, "discounted_return": disc, "length": length}
 
 
@@ -380,12 +412,15 @@ def evaluate(
       progress: wraps the preferences' iteration (e.g. `tqdm`).
     """
     episodes = target.project_episodes if episodes is None else episodes
+    running = [make_env() for _ in range(episodes)]  # reset anew for every preference
     rows = []
     for pref, policy, project in progress(
         list(zip(target.prefs, target.policy_at, target.project, strict=True))
     ):
-        found = run_episodes(make_env, policy, episodes, seed, target.gamma)
+        found = run_episodes(running, policy, seed, target.gamma)
         rows.append({"pref": pref.tolist(), **summarize_episodes(found), "project": project})
+    for env in running:
+        env.close()
     out = {
         "run": target.run,
         "env": target.env,
@@ -397,6 +432,7 @@ def evaluate(
         "inference": "numpy, float32 (wcac_jax.evaluate.numpy_policy)",
         "episodes": episodes,
         "project_episodes": target.project_episodes,
+        "project_source": target.project_source,
         "seed": seed,
         "seeds": f"episode k of every preference resets with seed {seed} + k",
         "gamma": target.gamma,
@@ -419,7 +455,7 @@ def make_reference_env(target: Target) -> Callable:
     import mo_gymnasium
 
     def make():
-        return mo_gymnasium.make(target.gym_id, **target.gym_kwargs)
+        return _without_mass_warning(lambda: mo_gymnasium.make(target.gym_id, **target.gym_kwargs))
 
     probe = make()
     obs_size = int(np.prod(probe.observation_space.shape))
@@ -442,6 +478,32 @@ def make_reference_env(target: Target) -> Callable:
             f"policy acts in +-{policy.action_bound}"
         )
     return make
+
+
+def _without_mass_warning(make: Callable):
+    """`make()`, with the line MuJoCo's C library prints each time it loads Gymnasium's
+    HalfCheetah model (its `settotalmass` attribute is deprecated; the project's own
+    loader, `mujoco_base.load_model`, sets the same mass as MuJoCo's replacement does)
+    dropped from the process's output; whatever else the call prints is passed on."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    saved = os.dup(1), os.dup(2)
+    with tempfile.TemporaryFile() as captured:
+        os.dup2(captured.fileno(), 1)
+        os.dup2(captured.fileno(), 2)
+        try:
+            return make()
+        finally:
+            sys.stdout.flush()
+            sys.stderr.flush()
+            os.dup2(saved[0], 1)
+            os.dup2(saved[1], 2)
+            os.close(saved[0])
+            os.close(saved[1])
+            captured.seek(0)
+            for line in captured.read().decode(errors="replace").splitlines():
+                if line.strip() and "'settotalmass' is deprecated" not in line:
+                    print(line, file=sys.stderr)
 
 
 __all__ = [
