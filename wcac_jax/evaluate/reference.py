@@ -14,7 +14,10 @@ numpy one, the project's JAX keys), so they agree statistically, not step for st
 difference of two means of `K` and `K'` episodes of the same policy has the standard error
 `s * sqrt(1/K + 1/K')`, with `s` the episodes' standard deviation (measured here; the
 project's `front.json` keeps means only). That one step from the same state gives the same
-observation and reward vector is the conformance tests' business.
+observation and reward vector is the conformance tests' business. Where returns have a
+rare mode (a policy that falls early in almost every episode and runs to the time limit
+in one of a hundred), `K` episodes may miss it and `s` understates the noise: re-run such
+a preference with many episodes on both sides (`load_target`'s `project_episodes`).
 
 MO-Gymnasium is optional: it is imported by `evaluate`'s caller (`make_reference_env`),
 never when this module is imported.
