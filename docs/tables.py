@@ -101,6 +101,8 @@ R = {
     "kuairand_no_bc": f"{RES}/kuairand_no_bc",
     "conditioned": f"{RES}/conditioned_walker2d",
     "mo_mujoco": f"{RES}/mo_mujoco",
+    # one run per task family re-evaluated in MO-Gymnasium (`python -m wcac_jax.evaluate`)
+    "mo_gymnasium_eval": f"{RES}/mo_gymnasium_eval",
     "kuairand_paper_scale": f"{RES}/kuairand_paper_scale",
 }
 
@@ -1257,6 +1259,47 @@ def t_conditioned_published(doc: Doc) -> str:
     return md(["method (3M env steps, published)", "HV (PGMORL scale)"], rows, "lr")
 
 
+def t_mo_gymnasium_eval(doc: Doc) -> str:
+    """Per task family, the MO-Gymnasium evaluation of one run against the project's
+    (`evaluation_mo_gymnasium.json`'s `agreement`): the largest difference of mean
+    undiscounted returns over the preferences and objectives, the standard errors of the
+    episode mean and of the difference there, and how many differences pass 2 and 3
+    standard errors."""
+    rows = []
+    for path in sorted(find(f"{R['mo_gymnasium_eval']}/*.json")):
+        d = load(path)
+        a = d["agreement"]["return"]
+        big = a["largest_difference"]
+        rows.append(
+            [
+                doc.link(os.path.basename(path).removesuffix(".json"), path),
+                f"`{d['env']}`",
+                d["policies"],
+                f"{len(d['prefs'])} x {d['episodes']} ({d['project_episodes']})",
+                f"{num(big['difference'], 1)} ({d['objective_names'][big['objective']]}, "
+                f"{pref_str(big['pref'])})",
+                num(big["se_of_mean"], 1),
+                num(big["se"], 1),
+                num(None if big["z"] is None else abs(big["z"]), 1),
+                num(a["max_abs_z"], 1),
+                f"{a['beyond_2se']} / {a['beyond_3se']} of {a['n']}",
+                _protocol_hv(d.get("protocol")),
+            ]
+        )
+    head = ["result", "task", "policies", "prefs x episodes (project's)", "largest difference"]
+    head += ["SE of mean", "SE of difference", "its z", "largest z", "beyond 2 / 3 SE"]
+    head += ["protocol HV: MO-Gymnasium / project"]
+    return md(head, rows, "llllrrrrrrr")
+
+
+def _protocol_hv(score: dict | None) -> str:
+    """`2.52e6 / 2.82e6`: the protocol's HV of both evaluations (`–` without one, or at
+    preferences other than the protocol's grid)."""
+    if score is None or any("preferences" in d for d in score["deviations"]):
+        return "–"
+    return f"{sci(score['mo_gymnasium']['hv'])} / {sci(score['project']['hv'])}"
+
+
 TABLES: dict[str, Callable[[Doc], str]] = {
     "glance": t_glance,
     "cli_default": t_cli_default,
@@ -1345,6 +1388,7 @@ TABLES: dict[str, Callable[[Doc], str]] = {
     "conditioned_published": t_conditioned_published,
     "conditioned_cost": t_conditioned_cost,
     "mo_mujoco": t_mo_mujoco,
+    "mo_gymnasium_eval": t_mo_gymnasium_eval,
     "mo_mujoco_published": t_mo_mujoco_published,
     "mo_mujoco_seeds": t_mo_mujoco_seeds,
     "mo_mujoco_seed_prefs": t_mo_mujoco_seed_prefs,

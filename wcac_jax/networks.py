@@ -5,7 +5,10 @@ categorical policy heads, and the per-layer Frobenius-ball projection of Algorit
 Every network's parameters are a `NetParams(trainable, fixed)` pytree: only `trainable`
 is ever differentiated, updated, projected or averaged; `fixed` holds what the paper keeps
 at its initial value (`A` and `c`). `apply(params, x)` accepts any leading batch axes:
-`x` is `[..., in_dim]` and the result `[..., out_dim]`.
+`x` is `[..., in_dim]` and the result `[..., out_dim]`. Every network here is a chain of
+dense layers, and `layers(params)` lists them (`Layer`), so that the same function can be
+computed outside JAX (`wcac_jax.evaluate.numpy_policy`) without reading the pytree's
+layout.
 """
 
 from __future__ import annotations
@@ -37,16 +40,36 @@ class NetParams:
     fixed: Any
 
 
+class Layer(NamedTuple):
+    """One dense layer of a network: `y = scale * activation(x @ kernel + bias)`.
+
+    Attributes:
+      kernel: `[in, out]`.
+      bias: `[out]`.
+      activation: `"linear"`, `"relu"` or `"tanh"`.
+      scale: a constant factor on the activation's output (the paper network's
+        `1 / sqrt(w)`; 1 elsewhere).
+    """
+
+    kernel: chex.Array
+    bias: chex.Array
+    activation: str
+    scale: float = 1.0
+
+
 class Network(NamedTuple):
-    """A network as two pure functions.
+    """A network as two pure functions, and its parameters as dense layers.
 
     Attributes:
       init: `key -> NetParams`.
       apply: `(NetParams, x [..., in_dim]) -> y [..., out_dim]`.
+      layers: `NetParams -> (Layer, ...)`, the layers `apply` computes, first to last:
+        `apply(params, x)` is `x` passed through each in turn.
     """
 
     init: Callable[[chex.PRNGKey], NetParams]
     apply: Callable[[NetParams, chex.Array], chex.Array]
+    layers: Callable[[NetParams], tuple[Layer, ...]] | None = None
 
 
 def paper_network(in_dim: int, out_dim: int, width: int, depth: int) -> Network:
@@ -86,25 +109,39 @@ def paper_network(in_dim: int, out_dim: int, width: int, depth: int) -> Network:
             h = jax.nn.relu(h @ w.T) * inv_sqrt_w
         return h @ params.fixed["c"]
 
-    return Network(init, apply)
+    def layers(params: NetParams) -> tuple[Layer, ...]:
+        a, c = params.fixed["a"], params.fixed["c"]
+        return (
+            Layer(a.T, jnp.zeros((width,), a.dtype), "linear"),
+            *(
+                Layer(w.T, jnp.zeros((width,), w.dtype), "relu", inv_sqrt_w)
+                for w in params.trainable["w"]
+            ),
+            Layer(c, jnp.zeros((out_dim,), c.dtype), "linear"),
+        )
+
+    return Network(init, apply, layers)
+
+
+_ACTIVATIONS = {"relu": nn.relu, "tanh": jnp.tanh}
 
 
 class _MLP(nn.Module):
     hidden: tuple[int, ...]
     out_dim: int
-    activation: Callable[[chex.Array], chex.Array]
+    activation: str  # a name of `_ACTIVATIONS`
     hidden_init: Callable
     out_init: Callable
 
     @nn.compact
     def __call__(self, x):
         for size in self.hidden:
-            x = self.activation(nn.Dense(size, kernel_init=self.hidden_init)(x))
+            x = _ACTIVATIONS[self.activation](nn.Dense(size, kernel_init=self.hidden_init)(x))
         return nn.Dense(self.out_dim, kernel_init=self.out_init)(x)
 
 
-def _trainable_network(module: nn.Module, in_dim: int) -> Network:
-    """A flax module as a `Network` whose parameters are all trainable (`fixed` empty)."""
+def _trainable_network(module: _MLP, in_dim: int) -> Network:
+    """A flax MLP as a `Network` whose parameters are all trainable (`fixed` empty)."""
 
     def init(key: chex.PRNGKey) -> NetParams:
         return NetParams(trainable=module.init(key, jnp.zeros((in_dim,))), fixed={})
@@ -112,7 +149,15 @@ def _trainable_network(module: nn.Module, in_dim: int) -> Network:
     def apply(params: NetParams, x: chex.Array) -> chex.Array:
         return module.apply(params.trainable, x)
 
-    return Network(init, apply)
+    def layers(params: NetParams) -> tuple[Layer, ...]:
+        # flax names the module's `nn.Dense` layers `Dense_0`, `Dense_1`, ... in call order
+        dense = [params.trainable["params"][f"Dense_{i}"] for i in range(len(module.hidden) + 1)]
+        activations = [module.activation] * len(module.hidden) + ["linear"]
+        return tuple(
+            Layer(d["kernel"], d["bias"], act) for d, act in zip(dense, activations, strict=True)
+        )
+
+    return Network(init, apply, layers)
 
 
 def _check_size(name: str, width: int, depth: int) -> None:
@@ -131,7 +176,7 @@ def mlp_network(
     """
     _check_size("mlp_network", width, depth)
     out_init = nn.initializers.variance_scaling(out_scale**2, "fan_in", "truncated_normal")
-    module = _MLP((width,) * depth, out_dim, nn.relu, nn.initializers.lecun_normal(), out_init)
+    module = _MLP((width,) * depth, out_dim, "relu", nn.initializers.lecun_normal(), out_init)
     return _trainable_network(module, in_dim)
 
 
@@ -171,7 +216,7 @@ def tanh_mlp(in_dim: int, out_dim: int, width: int, depth: int, out_scale: float
     output (0.01 for a policy, so that every initial mean action is near 0; 1 for a critic)."""
     _check_size("tanh_mlp", width, depth)
     module = _MLP(
-        (width,) * depth, out_dim, jnp.tanh, orthogonal(math.sqrt(2)), orthogonal(out_scale)
+        (width,) * depth, out_dim, "tanh", orthogonal(math.sqrt(2)), orthogonal(out_scale)
     )
     return _trainable_network(module, in_dim)
 
@@ -286,6 +331,8 @@ class Policy(NamedTuple):
       entropy: `dist -> [...]`.
       to_env: `action -> action` as the environment takes it (Gaussian: clipped to
         `[-1, 1]`; the score always uses the unclipped sample).
+      layers: `NetParams -> (Layer, ...)`, the network's layers inside the policy's
+        parameters (`Network.layers`: a Gaussian's mean, a softmax's logits).
     """
 
     init: Callable[[chex.PRNGKey], NetParams]
@@ -295,6 +342,7 @@ class Policy(NamedTuple):
     mode: Callable[[Any], chex.Array]
     entropy: Callable[[Any], chex.Array]
     to_env: Callable[[chex.Array], chex.Array]
+    layers: Callable[[NetParams], tuple[Layer, ...]] | None = None
 
 
 def gaussian_policy(
@@ -323,10 +371,12 @@ def gaussian_policy(
             return NetParams({"net": net.trainable, "log_std": log_std}, {"net": net.fixed})
         return NetParams({"net": net.trainable}, {"net": net.fixed, "log_std": log_std})
 
+    def net_params(params: NetParams) -> NetParams:
+        return NetParams(params.trainable["net"], params.fixed["net"])
+
     def apply(params: NetParams, obs: chex.Array) -> tuple[chex.Array, chex.Array]:
-        net = NetParams(params.trainable["net"], params.fixed["net"])
         log_std = params.trainable["log_std"] if learn_log_std else params.fixed["log_std"]
-        return network.apply(net, obs), log_std
+        return network.apply(net_params(params), obs), log_std
 
     def entropy(dist):
         mean, log_std = dist
@@ -341,6 +391,7 @@ def gaussian_policy(
         mode=lambda dist: dist[0],
         entropy=entropy,
         to_env=_to_box(action_bound),
+        layers=lambda params: network.layers(net_params(params)),
     )
 
 
@@ -373,6 +424,7 @@ def categorical_policy(network: Network) -> Policy:
         mode=lambda logits: jnp.argmax(logits, axis=-1),
         entropy=entropy,
         to_env=lambda action: action,
+        layers=network.layers,
     )
 
 
