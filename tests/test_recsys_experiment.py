@@ -32,7 +32,8 @@ METHODS = (
 ROW_KEYS = {
     "ncis", "ncis_ci95", "vs_bc", "vs_bc_ci95", "ess", "truth", "truth_ci95", "truth_vs_bc",
     "truth_vs_bc_ci95", "unified_truth", "unified_truth_ci95", "unified_vs_bc",
-    "unified_vs_bc_ci95", "gap_share", "gap_share_ci95",
+    "unified_vs_bc_ci95", "gap_share", "gap_share_ci95", "gap_share_by_data_set",
+    "gap_share_ci95_data_sets",
 }  # fmt: skip
 
 
