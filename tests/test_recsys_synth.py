@@ -157,6 +157,29 @@ def test_users_interleaved_in_time_one_episode_per_user(generated):
     assert in_file_order > 5 * users
 
 
+def test_biases_are_the_roots_of_the_calibration_on_the_protocol_rows(generated, kept):
+    """Calibration, solved again here: for each signal, scipy's brentq finds the bias at
+    which the model's expected rate over the rows the protocol keeps is the target (the
+    other biases held); the generator's bisection must have found the same root."""
+    import dataclasses
+
+    from scipy.optimize import brentq
+
+    _, model = generated
+    ctx = model.logged_context(kept.index.to_numpy())
+    users, videos = kept["user_id"].to_numpy(), kept["video_id"].to_numpy()
+    targets = [*synth.TARGET_RATES.values(), synth.TARGET_PLAY_TIME_MS / 1e4]
+
+    def rate(j: int, b: float) -> float:
+        bias = model.bias.copy()
+        bias[j] = b
+        return dataclasses.replace(model, bias=bias).expected(users, videos, ctx)[:, j].mean()
+
+    for j, target in enumerate(targets):
+        root = brentq(lambda b, j=j, t=target: rate(j, b) - t, -30.0, 30.0, xtol=1e-10)
+        assert abs(root - model.bias[j]) < 1e-6, (j, root, model.bias[j])
+
+
 def test_expected_rates_hold_on_rows_the_calibration_did_not_see(generated):
     """Calibration carries over: the biases were set on part1's rows of its 150 most
     viewed videos; on part2's rows of those videos (drawn by the same logged policy, each
