@@ -1714,8 +1714,8 @@ DOC_VALUES: dict[str, Callable[[Repo, str, list], Findings] | str] = {
     "kuairand_action_levels": "the recommendation experiment's training curves",
     "kuairand_loss_levels": "the recommendation experiment's training curves",
     "kuairand_wall": "the recommendation experiment's seconds",
-    "kuairand_ncis_judged": "the recommendation experiment: check_kuairand",
-    "kuairand_ncis_few": "the recommendation experiment: check_kuairand",
+    "kuairand_ncis_judged": "the test rows' logged event counts (table.json's ncis_events)",
+    "kuairand_ncis_few": "the test rows' logged event counts (table.json's ncis_events)",
 }
 
 
