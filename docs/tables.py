@@ -1031,6 +1031,34 @@ def t_kuairand_unified(doc: Doc, key: str = "kuairand") -> str:
     return md(head + ["share of BC → oracle gap [95%]", "NCIS ESS"], rows, "lrrrr")
 
 
+def t_kuairand_sets(doc: Doc) -> str:
+    """Each method's share of the Behavior-Clone -> oracle gap on each data set, pooled
+    (with its interval over test rows and seeds, conditional on the data sets), and with
+    the data sets resampled as well."""
+    path = f"{R['kuairand']}/table.json"
+    d = load(path)
+    values = load(f"{R['kuairand']}/per_seed.json")["data_sets"]
+    mean = lambda ds, m: sum(ds[m]["unified_truth"]) / len(ds[m]["unified_truth"])  # noqa: E731
+    gaps = [mean(ds, "Oracle") - mean(ds, "Behavior-Clone") for ds in values]
+    rows = [["the gap itself (true unified value)", *(num(g, 3) for g in gaps), "", ""]]
+    for name, m in d["methods"].items():
+        if name in ("Behavior-Clone", "Oracle"):
+            continue  # 0 and 1 by definition
+        lo, hi = m["gap_share_ci95"]
+        slo, shi = m["gap_share_ci95_data_sets"]
+        rows.append(
+            [name]
+            + [num(v, 2) for v in m["gap_share_by_data_set"]]
+            + [
+                f"{num(m['gap_share'], 2)} [{num(lo, 2)}, {num(hi, 2)}]",
+                f"[{num(slo, 2)}, {num(shi, 2)}]",
+            ]
+        )
+    sets = [f"data set {i}" for i in range(len(d["data_seeds"]))]
+    head = [doc.link("share of BC → oracle gap", path), *sets, "pooled [95%, given the sets]"]
+    return md(head + ["[95%, sets resampled]"], rows, "l" + "r" * (len(sets) + 2))
+
+
 def t_kuairand_fig2(doc: Doc) -> str:
     """Each leaning policy's true values relative to the unified preference's, in %."""
     path = f"{R['kuairand']}/fig2.json"
@@ -1228,10 +1256,14 @@ def t_mo_mujoco_seed_prefs(doc: Doc) -> str:
 def t_conditioned_cost(doc: Doc) -> str:
     """The cost of more front points: seed 0's network evaluated at P preferences (its
     training once, plus each evaluation) against P independent 1M-step policies, whose
-    seconds are the 9 x 1M fronts' mean wall per preference times P (extrapolated)."""
+    seconds are the 9 x 1M fronts' mean wall per preference times P (extrapolated). The
+    run's wall time holds its own 33-preference evaluation: the training alone is that
+    wall less the evaluation's seconds (`front.json`'s `conditioned.eval_s`), so each
+    evaluation counts once."""
     path = f"{R['conditioned']}/summary.json"
     d = load(path)
     train = d["runs"]["conditioned"]["0"]
+    own_eval_s = load(f"{R['conditioned']}/conditioned/seed0/front.json")["conditioned"]["eval_s"]
     per_pref = d["means"]["independent_9x1M"]
     steps_pp = per_pref["env_steps_total"] / 9
     wall_pp = per_pref["wall_s"] / 9
@@ -1242,7 +1274,7 @@ def t_conditioned_cost(doc: Doc) -> str:
             [
                 doc.link(str(p), path),
                 num(train["env_steps_total"] + c["eval_env_steps"]),
-                num(train["wall_s"] + c["eval_s"]),
+                num(train["wall_s"] - own_eval_s + c["eval_s"]),
                 num(p * steps_pp),
                 num(p * wall_pp),
             ]
@@ -1395,6 +1427,7 @@ TABLES: dict[str, Callable[[Doc], str]] = {
     "kuairand_paper_scale_unified": lambda doc: t_kuairand_unified(doc, "kuairand_paper_scale"),
     "kuairand_headroom": t_kuairand_headroom,
     "kuairand_fig2": t_kuairand_fig2,
+    "kuairand_sets": t_kuairand_sets,
     "kuairand_run": t_kuairand_run,
 }
 
@@ -1410,6 +1443,20 @@ def v_kuairand_alg1_gap(doc: Doc) -> str:
     m = load(path)["methods"]["wcac (Algorithm 1)"]
     lo, hi = m["gap_share_ci95"]
     return doc.link(f"{num(100 * m['gap_share'])}% [95%: {num(100 * lo)}–{num(100 * hi)}%]", path)
+
+
+def v_kuairand_alg1_gap_sets(doc: Doc) -> str:
+    """Algorithm 1's share of the gap on each data set, and its interval with the data
+    sets resampled as well (data sets, then training seeds within each)."""
+    path = f"{R['kuairand']}/table.json"
+    m = load(path)["methods"]["wcac (Algorithm 1)"]
+    each = _and([f"{num(100 * v)}%" for v in m["gap_share_by_data_set"]])
+    lo, hi = m["gap_share_ci95_data_sets"]
+    return doc.link(
+        f"{each} on the {len(m['gap_share_by_data_set'])} data sets, and {num(100 * lo)}% to "
+        f"{num(100 * hi)}% with the data sets resampled too",
+        path,
+    )
 
 
 def v_kuairand_no_bc_ddpg_gaps(doc: Doc) -> str:
@@ -1504,12 +1551,19 @@ def v_kuairand_ncis_few(doc: Doc) -> str:
 
 
 def v_kuairand_wall(doc: Doc) -> str:
-    """The default experiment's wall time, as one process."""
+    """The default experiment's wall time as one process, with the machine's load at its
+    end and the process's CPU time (the wall time of a run beside other work is not the
+    program's)."""
     path = f"{R['kuairand']}/run.json"
     info = load(path)
     if info.get("merged_parts", True):
         raise ValueError(f"{path}: trained in --part processes; its total is no one wall time")
-    return doc.link(f"{num(info['seconds']['total'] / 60)} minutes", path)
+    wall, cpu = info["seconds"]["total"] / 60, info["cpu_seconds"][-1] / 60
+    load_end = info["load_average_at_end"][0]
+    return doc.link(
+        f"{num(wall)} minutes (load average {num(load_end)} at its end; {num(cpu)} CPU minutes)",
+        path,
+    )
 
 
 def v_kuairand_no_bc_ddpg_action(doc: Doc) -> str:
@@ -1639,6 +1693,7 @@ VALUES: dict[str, Callable[[Doc], str]] = {
     "humanoid_ppo_3M": partial(_ppo_run_value, env="humanoid", steps=3_000_000),
     "kuairand_training": v_kuairand_training,
     "kuairand_alg1_gap": v_kuairand_alg1_gap,
+    "kuairand_alg1_gap_sets": v_kuairand_alg1_gap_sets,
     "kuairand_no_bc_ddpg_gaps": v_kuairand_no_bc_ddpg_gaps,
     "kuairand_no_bc_alg1_gap": v_kuairand_no_bc_alg1_gap,
     "kuairand_no_bc_ddpg_action": v_kuairand_no_bc_ddpg_action,

@@ -11,9 +11,10 @@ Arms, each a command-line sweep per seed:
       are there.
 
 For every front: the PGMORL-scale hypervolume (points `(R0, R1 + 4 L)` from the
-undiscounted returns and the episode length `L`, i.e. the objectives `sum(v_x + 1)` and
-`sum(5 - |a|^2)`, reference point the origin), the project's own hypervolume and expected
-utility (`front.json`), the non-dominated count, Spearman's rank correlation between
+undiscounted returns and the episode length `L`, i.e. PGMORL's objectives `sum(v_x + 1)`
+and `sum(5 - |a|^2)` less the one alive bonus v5 withholds on a falling step, reference
+point the origin), the project's own hypervolume and expected utility (`front.json`),
+the non-dominated count, Spearman's rank correlation between
 `p0` and the forward return, and the forward end's speed and length and the control
 end's control return. Then the cost of more front points: the seed-0 network evaluated
 at 9, 33 and 101 preferences (its env steps and seconds) against P independent policies.
@@ -80,6 +81,21 @@ def spearman(x, y) -> float:
     return float(np.corrcoef(rx, ry)[0, 1])
 
 
+def forward_speed(front: dict, i: int) -> float:
+    """Row `i`'s mean x velocity from its forward return `R0 = sum(v_x + healthy)`, the
+    healthy reward withheld on a falling step: exact where the mean length fixes the
+    falls, else the middle of the range they allow (`walker2d_common.policy_summary`)."""
+    sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+    import walker2d_common
+
+    summary = walker2d_common.policy_summary(
+        front["prefs"][i], *walker2d_common.evaluation_setup(front)
+    )
+    if summary["falls_per_episode"] is not None:
+        return float(summary["mean_speed_m_per_s"])
+    return float(np.mean(summary["mean_speed_m_per_s_range"]))
+
+
 def front_metrics(front: dict) -> dict:
     """What the tables report of one front."""
     from wcac_jax import pareto
@@ -98,8 +114,7 @@ def front_metrics(front: dict) -> dict:
         "expected_utility": front["expected_utility"],
         "nondominated": int(sum(r["nondominated"] for r in rows)),
         "spearman_p0_forward": spearman(prefs[:, 0], ret[:, 0]),
-        # R0 = sum(v_x + healthy): the mean speed over an episode of healthy steps
-        "forward_end_speed": float(ret[fwd, 0] / max(length[fwd], 1.0) - 1.0),
+        "forward_end_speed": forward_speed(front, fwd),
         "forward_end_length": float(length[fwd]),
         "control_end_control_return": float(ret[ctrl, 1]),
         "env_steps_total": front["env_steps_total"],
@@ -169,10 +184,12 @@ def cost_growth(run_dir: str, counts) -> list[dict]:
         prefs = pareto.simplex_lattice(2, k)
         t0 = time.perf_counter()
         ev = evaluate_at(run, prefs)
+        # each preference's mean length times the episodes (the sum is not truncated first)
+        steps = float(np.sum(np.asarray(ev["eval/length"], np.float64))) * run.config.eval_episodes
         rows.append(
             {
                 "eval_prefs": k,
-                "eval_env_steps": int(np.sum(ev["eval/length"])) * run.config.eval_episodes,
+                "eval_env_steps": int(round(steps)),
                 "eval_s": time.perf_counter() - t0,
                 "load": os.getloadavg(),
             }
@@ -296,6 +313,9 @@ def main(argv=None) -> None:
     work0 = os.path.join(args.work, "conditioned", "seed0")
     if args.cost_prefs and os.path.isdir(work0):
         cost = cost_growth(work0, args.cost_prefs)
+    elif os.path.isfile(os.path.join(out, "summary.json")):  # not measured again: kept
+        with open(os.path.join(out, "summary.json")) as f:
+            cost = json.load(f).get("cost_growth")
     summary = summarize(out, args.reuse_9x1m, cost)
     if out != args.out:
         from wcac_jax.outputs import replace_dir

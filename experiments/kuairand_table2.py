@@ -21,11 +21,16 @@ objective under that model. Writes to `OUT`:
 - `table.json`: `{"seeds", "data_seeds", "methods": {name: {"ncis", "ncis_ci95",
   "vs_bc", "vs_bc_ci95", "ess", "truth", "truth_ci95", "truth_vs_bc",
   "truth_vs_bc_ci95", "unified_truth", "unified_truth_ci95", "unified_vs_bc",
-  "unified_vs_bc_ci95", "gap_share", "gap_share_ci95"}}, "logged", "ncis_events",
-  "min_ncis_events"}` (NCIS gives no verdict on a signal with fewer logged events
-  among the test rows than `min_ncis_events`; the `truth`
-  entries, the oracle's and the gap only on synthetic data), means over data sets and
-  training seeds with 95% bootstrap intervals (`wcac_jax.recsys.stats`);
+  "unified_vs_bc_ci95", "gap_share", "gap_share_ci95", "gap_share_by_data_set",
+  "gap_share_ci95_data_sets"}}, "logged", "ncis_events", "min_ncis_events"}` (NCIS gives
+  no verdict on a signal with fewer logged events among the test rows than
+  `min_ncis_events`; the `truth` entries, the oracle's and the gap only on synthetic
+  data), means over data sets and training seeds with 95% bootstrap intervals over test
+  rows and seeds, conditional on the data sets (`wcac_jax.recsys.stats`); the gap share
+  also per data set and with the data sets resampled too;
+- `per_seed.json`: per data set, method and training seed, the estimates on all of the
+  set's test rows (NCIS and the true value per signal, the unified true value), from
+  which the point estimates and the data-set-level interval are recomputed;
 - `table.md`: the Table 2 analogue; `fig2.png`, `fig2.json`: the Fig. 2 analogue;
 - `curves.json`: per data set, method and seed, the critic loss and mean action in 40
   windows of the training steps;
@@ -355,9 +360,27 @@ def _none(x):
     return None if not np.isfinite(x) else float(x)
 
 
-def summarise(per_data: list, draws: list, has_truth: bool) -> dict:
+def per_seed(scores: dict) -> dict:
+    """One data set's estimates per method and training seed on all of its test rows:
+    `{method: {"ncis": [S, 7], "truth": [S, 7], "unified_truth": [S]}}` (the truth
+    entries only with a response model). The table's point estimates are their means over
+    seeds, then data sets."""
+    out = {}
+    for k in ORDER:
+        sc = scores[k]
+        row = {"ncis": (sc["wr"].sum(axis=1) / sc["w"].sum(axis=1)[:, None]).tolist()}
+        if "true" in sc:
+            true = sc["true"].mean(axis=1)  # [S, 8]
+            row |= {"truth": true[:, :7].tolist(), "unified_truth": true[:, 7].tolist()}
+        out[NAMES[k]] = row
+    return out
+
+
+def summarise(per_data: list, draws: list, has_truth: bool, set_draws=None) -> dict:
     """`table.json`'s `methods`: point estimates, 95% intervals, changes vs Behavior-Clone
-    (paired), ESS and, with the truth, the unified objective and the gap share."""
+    (paired), ESS and, with the truth, the unified objective and the gap share: its
+    interval over test rows and seeds (conditional on the data sets), its value on each
+    data set, and (with `set_draws`) its interval with the data sets resampled too."""
     ncis_rep = {
         k: stats.ncis_replicates(
             [d[k]["w"] for d in per_data], [d[k]["wr"] for d in per_data], draws
@@ -409,7 +432,22 @@ def summarise(per_data: list, draws: list, has_truth: bool) -> dict:
                     stats.gap_share(t_pt[7], true_pt["bc"][7], true_pt["oracle"][7])
                 ),
                 "gap_share_ci95": stats.ci95(gap_rep).tolist(),
+                "gap_share_by_data_set": [
+                    float(
+                        stats.gap_share(*(d[j]["true"][..., 7].mean() for j in (k, "bc", "oracle")))
+                    )
+                    for d in per_data
+                ],
             }
+            if set_draws is not None:
+                unified = {
+                    j: stats.set_replicates(
+                        [d[j]["true"][:, :, 7].mean(axis=1)[:, None] for d in per_data], set_draws
+                    )[:, 0]
+                    for j in (k, "bc", "oracle")
+                }
+                sets_rep = stats.gap_share(unified[k], unified["bc"], unified["oracle"])
+                row["gap_share_ci95_data_sets"] = stats.ci95(sets_rep).tolist()
         methods[NAMES[k]] = row
     return methods
 
@@ -515,14 +553,23 @@ def run(
         raise DataError(f"the parts were made under different protocols: {protocols}")
     rng = np.random.default_rng(seed)
     draws = [stats.draw(rng, p["size"]["test_rows"], seeds, n_boot) for p in parts]
+    # the data sets resampled as well, from a generator of their own (the draws above,
+    # and so every interval conditional on the data sets, stay as they were)
+    set_draws = stats.draw_sets(np.random.default_rng([seed, 1]), len(parts), seeds, n_boot)
     has_truth = all(p["has_truth"] for p in parts)
     logged = [p["logged"] for p in parts]
     table = {
         "seeds": list(range(seeds)),
         "data_seeds": [p["name"] for p in parts],
         "unified_preference": UNIFIED.tolist(),
-        "bootstrap": {"replicates": n_boot, "resampled": "test rows and training seeds"},
-        "methods": summarise([p["scores"] for p in parts], draws, has_truth),
+        "bootstrap": {
+            "replicates": n_boot,
+            "resampled": "test rows and training seeds within each data set",
+            "data_sets_resampled": "gap_share_ci95_data_sets: data sets, then training "
+            "seeds within each (from per_seed.json, generator numpy default_rng([seed, 1]): "
+            "sets = integers(0, D, (B, D)), then seeds = integers(0, S, (B, D, S)))",
+        },
+        "methods": summarise([p["scores"] for p in parts], draws, has_truth, set_draws),
         "ncis_events": ncis_events(parts),
         "min_ncis_events": MIN_NCIS_EVENTS,
         "logged": {
@@ -557,8 +604,14 @@ def run(
         "load_average_at_end": list(os.getloadavg()),
     }
     curves = {"points": CURVE_POINTS, "steps": cfg.steps, "data_sets": [p["curves"] for p in parts]}
+    values = {
+        "seed": seed,
+        "seeds": list(range(seeds)),
+        "data_sets": [{"name": p["name"], **per_seed(p["scores"])} for p in parts],
+    }
     files = {
         "table.json": json.dumps(table, indent=2) + "\n",
+        "per_seed.json": json.dumps(values) + "\n",
         "table.md": markdown(table, has_truth),
         "fig2.json": json.dumps(fig2, indent=2) + "\n",
         "run.json": json.dumps(run_info, indent=2) + "\n",

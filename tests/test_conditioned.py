@@ -167,7 +167,9 @@ def test_cli_trains_one_network_and_evaluates_it_at_every_preference(tmp_path, c
     per_iteration = conditioned.ConditionedConfig().env_steps_per_iteration
     assert 40_000 <= front["env_steps_total"] < 40_000 + per_iteration
     assert front["conditioned"]["networks"] == 1 and front["conditioned"]["eval_prefs"] == 5
-    assert 0 < front["conditioned"]["eval_env_steps"] <= 5 * 8 * 500
+    # the evaluation's steps: 8 episodes per preference, each row's mean length times 8
+    steps = 8 * sum(r["episode_length"] for r in front["prefs"])
+    assert front["conditioned"]["eval_env_steps"] == round(steps) <= 5 * 8 * 500
     assert front["config"]["train"]["kind"] == "conditioned"
     for name in ("front.png", "front.csv", "curves.npz", "config.json"):
         assert os.path.isfile(os.path.join(out, name))
@@ -209,37 +211,76 @@ def _experiment():
 ROOT = os.path.join(os.path.dirname(__file__), os.pardir)
 
 
-def test_pgmorl_scale_and_rank_correlation_by_hand():
+def _walker_episode(action: float, steps: int):
+    """MO-Gymnasium's mo-walker2d-v5 under a constant action for at most `steps` steps:
+    its vector return, the length, and PGMORL's two objectives summed from the same steps'
+    raw quantities (its Walker2d: `v_x + 1` and `4 - |a|^2 + 1`, the action clipped)."""
+    import mo_gymnasium
+
+    env = mo_gymnasium.make("mo-walker2d-v5")
+    env.reset(seed=0)
+    a = np.full(env.action_space.shape, action)
+    ret, pgmorl, fell, n = np.zeros(2), np.zeros(2), False, 0
+    while n < steps and not fell:
+        _, r, fell, _, info = env.step(a)
+        ret, n = ret + r, n + 1
+        pgmorl += [info["x_velocity"] + 1.0, 5.0 - np.square(np.clip(a, -1, 1)).sum()]
+    env.close()
+    return ret, n, pgmorl, fell
+
+
+def test_pgmorl_scale_is_pgmorls_objectives_from_the_raw_steps():
+    """`pgmorl_points` against PGMORL's definitions applied step by step to an episode of
+    the reference environment: equal where no episode falls; on a falling episode short by
+    exactly the one bonus v5 withholds on the falling step, on each objective."""
     exp = _experiment()
-    front = {
-        "prefs": [
-            {"return": [2000.0, -500.0], "episode_length": 500.0},
-            {"return": [400.0, 100.0], "episode_length": 200.0},
-        ]
-    }
-    # (R0, R1 + 4 L): the control objective as sum(5 - |a|^2)
-    np.testing.assert_array_equal(exp.pgmorl_points(front), [[2000.0, 1500.0], [400.0, 900.0]])
+    ret, n, pgmorl, fell = _walker_episode(0.3, 60)
+    assert not fell and n == 60
+    front = {"prefs": [{"return": ret.tolist(), "episode_length": float(n)}]}
+    np.testing.assert_allclose(exp.pgmorl_points(front)[0], pgmorl, rtol=1e-5)
+    ret, n, pgmorl, fell = _walker_episode(0.3, 500)
+    assert fell and n < 500
+    front = {"prefs": [{"return": ret.tolist(), "episode_length": float(n)}]}
+    np.testing.assert_allclose(pgmorl - exp.pgmorl_points(front)[0], [1.0, 1.0], atol=1e-4)
+
+
+def test_rank_correlation_by_hand():
+    exp = _experiment()
     assert exp.spearman([0.0, 0.5, 1.0], [3.0, 2.0, 1.0]) == pytest.approx(-1.0)
+    # ties take their mean rank: ranks (0, 1, 2) against (0.5, 0.5, 2)
     assert exp.spearman([0.0, 0.5, 1.0], [1.0, 1.0, 2.0]) == pytest.approx(np.sqrt(3) / 2)
 
 
-def test_committed_experiment_summary_is_what_its_fronts_give():
+def test_front_metrics_by_hand():
+    """A made-up front of three preferences (8 episodes each, time limit 500): every
+    number of a summary row by hand. `[1, 0]` lasts 250 steps on average, so at most 3 of
+    its 8 episodes lasted 500 (4 x 500 + 4 x 1 > 8 x 250): 5 to 8 falls, 0.625 to 1 per
+    episode, its speed `(R0 - L + f) / L` between (1000 - 250 + 0.625) / 250 and
+    (1000 - 250 + 1) / 250, the middle reported."""
     exp = _experiment()
-    out = os.path.join(ROOT, "experiments", "results", "conditioned_walker2d")
-    with open(os.path.join(out, "summary.json")) as f:
-        summary = json.load(f)
-    fronts = exp.read_fronts(out, os.path.join(ROOT, summary["reused_9x1M"]))
-    assert set(fronts) == set(summary["runs"])
-    for arm, runs in summary["runs"].items():
-        for seed, row in runs.items():
-            metrics = exp.front_metrics(fronts[arm][int(seed)])
-            assert set(metrics) == set(row)
-            for key, value in row.items():
-                assert metrics[key] == (value if value is None else pytest.approx(value))
-    with open(os.path.join(out, "front.json")) as f:
-        top = json.load(f)
-    assert top == fronts["conditioned"][0] and len(top["prefs"]) >= 33
-    assert top["env_steps_total"] <= 3_030_000 and top["conditioned"]["networks"] == 1
+    rows = [([1.0, 0.0], [1000.0, -300.0], 250.0), ([0.5, 0.5], [600.0, 200.0], 500.0)]
+    rows.append(([0.0, 1.0], [500.0, 480.0], 500.0))
+    front = {
+        "prefs": [
+            {"pref": p, "return": r, "episode_length": n, "nondominated": True} for p, r, n in rows
+        ],
+        "hypervolume": 1.0,
+        "expected_utility": 2.0,
+        "env_steps_total": 300,
+        "wall_s": 3.0,
+        "train_s": 2.0,
+        "compile_s": 1.0,
+        "config": {"env": "walker2d", "env_options": {}, "eval_episodes": 8},
+    }
+    m = exp.front_metrics(front)
+    # PGMORL scale: (1000, -300 + 1000), (600, 200 + 2000), (500, 480 + 2000); none
+    # dominates another: a staircase from (0, 0)
+    assert m["hv_pgmorl"] == pytest.approx(500 * 2480 + 100 * 2200 + 400 * 700)
+    assert m["nondominated"] == 3 and m["n_prefs"] == 3
+    assert m["spearman_p0_forward"] == pytest.approx(1.0)
+    assert m["forward_end_speed"] == pytest.approx((1000 - 250 + 0.8125) / 250)
+    assert m["forward_end_length"] == 250.0 and m["control_end_control_return"] == 480.0
+    assert (m["hv_project"], m["expected_utility"], m["wall_s"]) == (1.0, 2.0, 3.0)
 
 
 @pytest.mark.parametrize(

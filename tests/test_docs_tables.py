@@ -67,12 +67,30 @@ def test_an_unknown_block_is_an_error():
     assert unknown == ["no_such_table"]
 
 
+def _broken_links(text: str, doc: str) -> list[str]:
+    return [
+        target
+        for target in LINK.findall(text)
+        if not os.path.exists(os.path.join(ROOT, os.path.dirname(doc), target.partition("#")[0]))
+    ]
+
+
 def test_every_table_and_value_renders_from_the_results():
+    """Each table is well formed (a header, a separator of as many columns, every row as
+    many cells) and each value is text; every link of either resolves to
+    a committed file. (Their numbers are recomputed by `tests/test_audit.py`.)"""
     for name, fn in tables.TABLES.items():
-        out = fn(tables.Doc("docs/results.md"))
-        assert out.startswith("|"), name
+        lines = fn(tables.Doc("docs/results.md")).splitlines()
+        cells = [line.strip("|").split(" | ") for line in lines]
+        assert len(lines) >= 3 and re.fullmatch(r"\|(-{3}:?\|)+", lines[1]), name
+        assert lines[1].count("|") - 1 == len(cells[0]), name
+        for row in [cells[0], *cells[2:]]:
+            assert len(row) == len(cells[0]), (name, row)
+        assert _broken_links("\n".join(lines), "docs/results.md") == [], name
     for name, fn in tables.VALUES.items():
-        assert fn(tables.Doc("README.md")), name
+        text = fn(tables.Doc("README.md"))
+        assert isinstance(text, str) and text.strip() and "|" not in text, name
+        assert _broken_links(text, "README.md") == [], name
 
 
 def test_readme_has_at_most_200_lines():

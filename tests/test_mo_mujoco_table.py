@@ -78,14 +78,60 @@ def test_table_numbers_by_hand(results):
     row = summary["rows"][0]
     # discounted (50, -20), (5, -2) from (-100, -100): 150 * 80 + 105 * 18
     assert row["hv_morl_baselines"] == pytest.approx(12000 + 1890)
-    # PGMORL's halfcheetah: forward + 1 and control + 5 per step (500 steps):
-    # (600, 2450) and (510, 2495) from the origin
-    assert row["hv_pgmorl"] == pytest.approx(600 * 2450 + 510 * 45)
+    # the PGMORL column against PGMORL's own objectives: test_pgmorl_column_*
     assert row["forward_end_pref"] == [1.0, 0.0]
     assert row["forward_end_mean_x_velocity"] == 2.0
     assert row["speed_ratio"] == pytest.approx(0.8)
     assert row["wall_ratio"] == pytest.approx(30.0 / (2 * 10.0 / 1.5))
     assert row["nondominated"] == 2 and row["expected_utility"] == 12.5
+
+
+def _halfcheetah_steps(action: float, steps: int):
+    """MO-Gymnasium's mo-halfcheetah-v5 under a constant action: its vector return, and
+    PGMORL's HalfCheetah objectives summed over the same steps from their raw quantities
+    (its environments/half_cheetah.py: `min(4, v_x) + 1` and `4 - |a|^2 + 1`, the action
+    clipped), and the fastest step's speed."""
+    import mo_gymnasium
+
+    env = mo_gymnasium.make("mo-halfcheetah-v5")
+    env.reset(seed=0)
+    a = np.full(env.action_space.shape, action)
+    ret, pgmorl, fastest = np.zeros(2), np.zeros(2), -np.inf
+    for _ in range(steps):
+        _, r, _, _, info = env.step(a)
+        v = info["x_velocity"]
+        ret += r
+        pgmorl += [min(4.0, v) + 1.0, 5.0 - np.square(np.clip(a, -1, 1)).sum()]
+        fastest = max(fastest, v)
+    env.close()
+    return ret, pgmorl, fastest
+
+
+def _one_point_row(ret, length: float) -> dict:
+    front = _front("smooth_wc", [list(ret), list(ret)], [[1.0, 1.0], [1.0, 1.0]], [1.0, 1.0])
+    for r in front["prefs"]:
+        r["episode_length"] = length
+    return mo_mujoco.summarize_front("halfcheetah", front, None)
+
+
+def test_pgmorl_column_is_pgmorls_objectives_below_the_speed_cap():
+    """A HalfCheetah episode of the reference environment that stays below 4 m/s: the
+    column's point is PGMORL's objectives summed step by step, so its hypervolume from
+    the origin is their product."""
+    ret, pgmorl, fastest = _halfcheetah_steps(0.5, 80)
+    assert 0.1 < fastest < 4.0
+    assert _one_point_row(ret, 80.0)["hv_pgmorl"] == pytest.approx(np.prod(pgmorl), rel=1e-5)
+
+
+def test_pgmorl_column_overstates_pgmorls_forward_objective_above_its_cap():
+    """Above 4 m/s PGMORL caps the forward reward; the column, made from v5's returns, does
+    not (its mapping note says so): at 6 m/s for 500 steps with |a|^2 = 1 the column's
+    point is (6 + 1, -1 + 5) x 500 where PGMORL's is (4 + 1, 4 - 1 + 1) x 500, its
+    hypervolume 7/5 of PGMORL's."""
+    row = _one_point_row([6.0 * 500, -1.0 * 500], 500.0)
+    assert row["hv_pgmorl"] == pytest.approx((7 * 500) * (4 * 500))
+    assert row["hv_pgmorl"] / ((5 * 500) * (4 * 500)) == pytest.approx(7 / 5)
+    assert "capped at 4 m/s there, not here" in mo_mujoco.PGMORL_MAPPING["halfcheetah"][1]
 
 
 def test_table_files(results):

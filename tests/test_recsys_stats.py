@@ -47,3 +47,20 @@ def test_interval_relative_gap_and_verdict_hand_computed():
     assert stats.verdict((0.1, 2.0)) == "better"
     assert stats.verdict((-2.0, -0.1)) == "worse"
     assert stats.verdict((-0.1, 0.1)) == "n.s."
+
+
+def test_set_replicates_resample_data_sets_then_seeds_by_hand():
+    """Two data sets with per-seed values (1, 3) and (10, 30): drawing set 1 twice, with
+    seeds (0, 1) and (1, 1), gives the mean of (10 + 30) / 2 and 30; set 0 with seeds
+    (0, 0) then set 1 with (1, 0) the mean of 1 and (30 + 10) / 2. A one-seed method (the
+    oracle) takes its value whatever seed is drawn."""
+    per_seed = [np.array([[1.0], [3.0]]), np.array([[10.0], [30.0]])]
+    d = stats.SetDraws(
+        sets=np.array([[1, 1], [0, 1]]), seeds=np.array([[[0, 1], [1, 1]], [[0, 0], [1, 0]]])
+    )
+    np.testing.assert_allclose(stats.set_replicates(per_seed, d)[:, 0], [25.0, 10.5])
+    one = [np.array([[5.0]]), np.array([[7.0]])]
+    np.testing.assert_allclose(stats.set_replicates(one, d)[:, 0], [7.0, 6.0])
+    drawn = stats.draw_sets(np.random.default_rng(0), n_sets=3, n_seeds=5, n_boot=40)
+    assert drawn.sets.shape == (40, 3) and drawn.seeds.shape == (40, 3, 5)
+    assert drawn.sets.max() <= 2 and drawn.seeds.max() <= 4 and drawn.seeds.min() >= 0

@@ -6,8 +6,11 @@ seed), with several training seeds. A bootstrap replicate draws, within each dat
 the test rows with replacement (one draw shared by every method and seed: the comparison
 with Behavior-Clone is paired) and the training seeds with replacement (one draw shared
 by every method); a method's replicate is the mean over data sets and drawn seeds of its
-estimate on the drawn rows. The data sets themselves are not resampled (there are few),
-so the intervals are conditional on them. Host side, numpy.
+estimate on the drawn rows. The data sets themselves are not resampled there, so those
+intervals are conditional on them. `draw_sets` and `set_replicates` resample the data
+sets as well (a two-level bootstrap: data sets, then training seeds within each drawn
+set), from each seed's estimate on all of its set's test rows; with few data sets that
+interval spans about the range of the per-set values. Host side, numpy.
 """
 
 from __future__ import annotations
@@ -68,6 +71,39 @@ def mean_replicates(values: list, draws: list) -> np.ndarray:
         per_seed = np.einsum("bn,snk->bsk", d.counts, v) / d.counts.sum(axis=1)[:, None, None]
         out.append(_pick(per_seed, d.seeds))
     return np.mean(out, axis=0)
+
+
+@dataclass(frozen=True)
+class SetDraws:
+    """Two-level bootstrap draws: `sets [B, D]` the drawn data sets, `seeds [B, D, S]` the
+    training seeds drawn within each drawn set."""
+
+    sets: np.ndarray
+    seeds: np.ndarray
+
+
+def draw_sets(rng: np.random.Generator, n_sets: int, n_seeds: int, n_boot: int) -> SetDraws:
+    """`n_boot` replicates over `n_sets` data sets and, within each, `n_seeds` seeds."""
+    sets = rng.integers(0, n_sets, (n_boot, n_sets))
+    return SetDraws(sets=sets, seeds=rng.integers(0, n_seeds, (n_boot, n_sets, n_seeds)))
+
+
+def set_replicates(per_seed: list, draws: SetDraws) -> np.ndarray:
+    """A method's two-level replicates: the mean over the drawn data sets of the mean
+    over their drawn seeds.
+
+    Args:
+      per_seed: per data set `[S, k]`, each training seed's estimate on all of that
+        set's test rows (the oracle's `S` is 1: it takes its one value whatever the draw).
+      draws: from `draw_sets`, shared by every method (paired).
+
+    Returns:
+      `[B, k]`.
+    """
+    stacked = np.stack(per_seed)  # [D, S, k]
+    s = stacked.shape[1]
+    picked = stacked[draws.sets[:, :, None], draws.seeds % s]  # [B, D, S', k]
+    return picked.mean(axis=(1, 2))
 
 
 def point(per_data: list) -> np.ndarray:

@@ -240,7 +240,10 @@ def _front(config, run, prefs, evaluation, trained, eval_s) -> dict:
         row["g_mu"] = row["scalarized"] = float(value)
         row.pop("train_episode_return")
     steps = int(run.metrics["train/env_steps"][0, -1])
-    eval_steps = int(np.sum(np.asarray(evaluation["eval/length"]))) * config.eval_episodes
+    # each preference's mean length over its episodes, times the episodes: its steps (a
+    # sum truncated before the product would drop up to `eval_episodes - 1` of them)
+    lengths = np.asarray(evaluation["eval/length"], np.float64)
+    eval_steps = int(round(float(np.sum(lengths)) * config.eval_episodes))
     front.update(
         env_steps_per_pref=None,
         env_steps_total=steps,

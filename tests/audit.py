@@ -1,0 +1,1923 @@
+"""Every stated number of the committed results, recomputed from raw returns and lengths.
+
+The audit reads every `front.json` under `experiments/results/` (found by walking the
+tree; each must belong to one entry of `FAMILIES`), the summaries and tables written
+beside them, and the numbers that README.md and docs/*.md print, and checks each stated
+number against its own recomputation from the raw data: the evaluated returns
+(undiscounted and discounted), the mean episode lengths, the preferences and the
+recorded measurements (mean x velocity, wall seconds, env steps). It computes with numpy,
+scipy's Spearman correlation, pymoo's hypervolume and the definitions written here; it
+imports nothing of `wcac_jax`, `experiments/` or `docs/tables.py`, so a wrong number in
+a summary, or a summariser that drifts from the definitions, cannot pass by agreeing
+with itself.
+
+`audit(root)` returns one line per stated number its data does not give (empty when
+all agree); `tests/test_audit.py` runs it on the repository and on copies with planted
+errors. A new family of results is one `Family` entry: the glob of its fronts, the
+reference point each `front.json` states its own hypervolume at, and `(glob, check)`
+pairs for the files its numbers feed; a check scores the fronts under a `Convention`
+(`C_MORL`, `PGMORL`, or a new one) and compares what the file states, e.g.
+
+    Family("the field's benchmark, C-MORL's protocol", ("field/cmorl/*/seed*/front.json",),
+           V5_TASKS, (("field/cmorl/table.json", check_field_table),))
+
+A front that no family claims, or a generated block of the documents that no entry of
+`DOC_TABLES` / `DOC_VALUES` names, is itself a finding. The suite table's "HV (PGMORL)"
+column is audited as it stands through `PGMORL_V5_COLUMN`, whose four uses say "the
+column as it stands": a column gone from the table or the docs is skipped, and those
+lines go with it.
+"""
+
+from __future__ import annotations
+
+import glob
+import itertools
+import json
+import math
+import os
+import re
+from collections.abc import Callable, Iterable, Iterator
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import numpy as np
+from pymoo.indicators.hv import HV
+from scipy.stats import spearmanr
+
+RESULTS = "experiments/results"
+# float64 sums of the same JSON values in another order
+RTOL = 1e-9
+
+# ---------------------------------------------------------------------- metrics
+
+
+def nondominated(points) -> np.ndarray:
+    """`[n]` mask of the non-dominated rows of `points` `[n, m]` (maximised); of identical
+    non-dominated points the first row counts."""
+    pts = np.asarray(points, np.float64)
+    keep = np.ones(len(pts), dtype=bool)
+    for i, p in enumerate(pts):
+        dominated = np.all(pts >= p, axis=1) & np.any(pts > p, axis=1)
+        repeated = np.all(pts[:i] == p, axis=1)
+        keep[i] = not (dominated.any() or repeated.any())
+    return keep
+
+
+def hypervolume(points, ref) -> float:
+    """pymoo's exact hypervolume of the points that strictly dominate `ref` (maximised)."""
+    pts, ref = np.asarray(points, np.float64), np.asarray(ref, np.float64)
+    inside = pts[np.all(pts > ref, axis=1)]
+    return 0.0 if len(inside) == 0 else float(HV(ref_point=-ref)(-inside))
+
+
+def outside(points, ref) -> list[int]:
+    """The rows that do not strictly dominate `ref` (they add nothing to the volume)."""
+    pts = np.asarray(points, np.float64)
+    return [i for i, p in enumerate(pts) if not np.all(p > np.asarray(ref))]
+
+
+def spearman(x, y) -> float:
+    return float(spearmanr(x, y).statistic)
+
+
+def expected_utility(points, weights) -> float:
+    """The mean over the weight vectors `w` of `max_j w . J_j`."""
+    return float(np.mean(np.max(np.asarray(weights) @ np.asarray(points, np.float64).T, axis=1)))
+
+
+def weight_grid(m: int, step: float) -> np.ndarray:
+    """Every weight vector on the `m`-simplex whose entries are multiples of `step`."""
+    h = round(1 / step)
+    rows = [c for c in itertools.product(range(h + 1), repeat=m) if sum(c) == h]
+    return np.array(rows, np.float64) / h
+
+
+def front_json_weights(m: int, n: int = 101) -> np.ndarray:
+    """The weights of `front.json`'s `expected_utility`, as docs/outputs.md defines them:
+    `n` evenly spaced vectors for two objectives; for more, the smallest simplex lattice
+    (step `1/h`) with at least `n` points, thinned to `n` by farthest-point sampling that
+    keeps the corners (lattice in reverse lexicographic order, ties to the first)."""
+    if m == 2:
+        t = np.linspace(1.0, 0.0, n)
+        return np.stack([t, 1 - t], axis=1)
+    h = 1
+    while math.comb(h + m - 1, m - 1) < n:
+        h += 1
+    grid = weight_grid(m, 1 / h)[::-1]
+    chosen = [i for i, w in enumerate(grid) if np.isclose(w.max(), 1.0)][:n]
+    while len(chosen) < n:
+        gaps = np.linalg.norm(grid[:, None] - grid[chosen][None], axis=-1).min(axis=1)
+        chosen.append(int(np.argmax(gaps)))
+    return grid[sorted(chosen)]
+
+
+def sparsity(points) -> float:
+    """PGMORL's sparsity of the non-dominated set: per objective the squared gaps between
+    sorted neighbours, summed, over `n - 1`."""
+    front = np.asarray(points, np.float64)[nondominated(points)]
+    if len(front) < 2:
+        return 0.0
+    return float(np.sum(np.diff(np.sort(front, axis=0), axis=0) ** 2) / (len(front) - 1))
+
+
+# ---------------------------------------------------------------------- fronts
+
+# Every evaluation of the committed fronts: 8 episodes, each cut at 500 steps.
+EPISODES, T = 8, 500
+
+
+@dataclass
+class Front:
+    """One `front.json`: its raw data, read once."""
+
+    path: str  # relative to the repository
+    data: dict
+
+    @cached_property
+    def prefs(self) -> np.ndarray:
+        return np.array([r["pref"] for r in self.data["prefs"]], np.float64)
+
+    @cached_property
+    def returns(self) -> np.ndarray:
+        return np.array([r["return"] for r in self.data["prefs"]], np.float64)
+
+    @cached_property
+    def discounted(self) -> np.ndarray:
+        return np.array([r["discounted_return"] for r in self.data["prefs"]], np.float64)
+
+    @cached_property
+    def lengths(self) -> np.ndarray:
+        return np.array([r["episode_length"] for r in self.data["prefs"]], np.float64)
+
+    @property
+    def env(self) -> str:
+        return self.data["env"]
+
+    @cached_property
+    def nd(self) -> np.ndarray:
+        return nondominated(self.returns)
+
+    def hv(self, ref) -> float:
+        return hypervolume(self.returns, ref)
+
+    @cached_property
+    def rho(self) -> float:
+        """Spearman's rank correlation of `p0` with the first objective's return."""
+        return spearman(self.prefs[:, 0], self.returns[:, 0])
+
+    def row(self, pref) -> int:
+        return [list(p) for p in self.prefs.tolist()].index([float(v) for v in pref])
+
+    @property
+    def forward(self) -> int:
+        """The forward end: the preference with all weight on the first objective."""
+        return self.row([1.0] + [0.0] * (self.prefs.shape[1] - 1))
+
+    @property
+    def control(self) -> int:
+        return self.row([0.0, 1.0])
+
+    def speed(self, i: int) -> tuple[float, float]:
+        return walker_speed(self.returns[i, 0], self.lengths[i])
+
+    def control_per_step(self, i: int) -> tuple[float, float]:
+        return walker_control(self.returns[i, 1], self.lengths[i])
+
+    def mean_x_velocity(self, i: int) -> float:
+        return float(self.data["prefs"][i]["mean_x_velocity"])
+
+    def final(self) -> Front:
+        """The same training's final policies (a front that chose among its last ones)."""
+        sel = self.data["selection"]
+        rows = [
+            {**r, "return": ret, "episode_length": n}
+            for r, ret, n in zip(
+                self.data["prefs"], sel["final_return"], sel["final_length"], strict=True
+            )
+        ]
+        return Front(self.path + " (final)", {**self.data, "prefs": rows})
+
+
+def falls(length: float) -> tuple[float, float]:
+    """The range of falls per episode that a mean length over `EPISODES` episodes allows:
+    at least the episodes that cannot have lasted `T`, at most one each (an episode may
+    fall on its last step and still last `T`)."""
+    full = min(EPISODES, math.floor((EPISODES * length - EPISODES) / (T - 1)))
+    return (EPISODES - max(full, 0)) / EPISODES, 1.0
+
+
+def walker_speed(forward: float, length: float) -> tuple[float, float]:
+    """Mean x velocity from a forward return of MO-Gymnasium's Walker2d (and Hopper):
+    each step pays `x_velocity + healthy`, healthy 1 on every step but a falling one, so
+    `R0 = L v + L - f` with `f` falls per episode; the range over the allowed `f`."""
+    lo, hi = falls(length)
+    return (forward - length + lo) / length, (forward - length + hi) / length
+
+
+def walker_control(control: float, length: float) -> tuple[float, float]:
+    """Control energy per step `sum a^2` from Walker2d's control return
+    `R1 = -L c + L - f`: `c = (L - f - R1) / L`, over the allowed `f`."""
+    lo, hi = falls(length)
+    return (length - hi - control) / length, (length - lo - control) / length
+
+
+# ---------------------------------------------------------------------- conventions
+
+
+@dataclass(frozen=True)
+class Convention:
+    """How a hypervolume (and expected utility) of the field is computed from a front.
+
+    `discounted`: the discounted returns, else the undiscounted ones; `ref`: the
+    reference point's value on every objective; `offsets`: per task, a constant per step
+    added to each objective (`None`: that objective as it is), times the mean length;
+    `eu_step`: the weight grid's step per number of objectives (none: no EU stated);
+    `gamma`: the discount the discounted returns must have been taken at."""
+
+    name: str
+    discounted: bool
+    ref: float
+    offsets: dict = field(default_factory=dict)
+    eu_step: dict = field(default_factory=dict)
+    gamma: float = 0.99
+
+    def points(self, front: Front) -> np.ndarray:
+        if self.discounted:
+            gamma = front.data.get("config", {}).get("train", {}).get("gamma", self.gamma)
+            if gamma != self.gamma:
+                raise ValueError(
+                    f"{front.path}: discounted at {gamma}, {self.name} at {self.gamma}"
+                )
+        pts = (front.discounted if self.discounted else front.returns).copy()
+        for j, c in enumerate(self.offsets.get(front.env, ())):
+            if c is not None:
+                pts[:, j] += c * front.lengths
+        return pts
+
+    def hv(self, front: Front) -> float:
+        pts = self.points(front)
+        return hypervolume(pts, [self.ref] * pts.shape[1])
+
+    def eu(self, front: Front) -> float:
+        pts = self.points(front)
+        return expected_utility(pts, weight_grid(pts.shape[1], self.eu_step[pts.shape[1]]))
+
+
+# morl-baselines' (and C-MORL's): discounted at 0.99, -100 per objective, EU over the
+# grid of step 0.01 (two objectives) or 0.1 (three).
+MORL_BASELINES = Convention("morl-baselines", True, -100.0, eu_step={2: 0.01, 3: 0.1})
+C_MORL = MORL_BASELINES
+# PGMORL's and COLA's: undiscounted, reference at the origin, so a point with a negative
+# objective adds nothing.
+PGMORL = Convention("PGMORL", False, 0.0)
+# The docs' PGMORL scale for Walker2d: PGMORL's energy objective is `4 - sum a^2 + 1` per
+# step (its environments/walker2d.py, the alive bonus paid on every step), v5's control
+# `-sum a^2 + healthy` (MO-Gymnasium's walker2d_v5, healthy 0 on a falling step): v5's
+# plus 4 per step, less one bonus per fall.
+PGMORL_WALKER2D = Convention("PGMORL scale", False, 0.0, offsets={"walker2d": (0.0, 4.0)})
+# The suite table's "HV (PGMORL)" column as it stands: PGMORL's per-step offsets where
+# its objectives map onto v5's (HalfCheetah's forward uncapped). One entry: delete it
+# with the column.
+PGMORL_V5_COLUMN = Convention(
+    "PGMORL (v5 column)",
+    False,
+    0.0,
+    offsets={
+        "walker2d": (0.0, 4.0),
+        "halfcheetah": (1.0, 5.0),
+        "hopper": (None, None, 4.0),
+        "ant-2obj": (0.0, 0.0),
+    },
+)
+
+
+# ---------------------------------------------------------------------- findings
+
+
+class Findings(list):
+    """The audit's lines, one per stated number its data does not give."""
+
+    def close(self, where: str, stated, expected, rel: float = RTOL, abs_: float = 1e-9):
+        if stated is None or expected is None:
+            if stated is not expected:
+                self.append(f"{where}: states {stated!r}, its data give {expected!r}")
+            return
+        if not math.isclose(float(stated), float(expected), rel_tol=rel, abs_tol=abs_):
+            self.append(f"{where}: states {stated!r}, its data give {expected!r}")
+
+    def within(self, where: str, stated, lo: float, hi: float, slack: float = 1e-9):
+        if stated is None or not lo - slack <= float(stated) <= hi + slack:
+            self.append(f"{where}: states {stated!r}, its data give [{lo!r}, {hi!r}]")
+
+    def equal(self, where: str, stated, expected):
+        if stated != expected:
+            self.append(f"{where}: states {stated!r}, its data give {expected!r}")
+
+
+@dataclass
+class Repo:
+    """The files the audit reads, under `root`, each read once."""
+
+    root: str
+    _json: dict = field(default_factory=dict)
+    _fronts: dict = field(default_factory=dict)
+
+    def exists(self, rel: str) -> bool:
+        return os.path.exists(os.path.join(self.root, rel))
+
+    def json(self, rel: str):
+        if rel not in self._json:
+            with open(os.path.join(self.root, rel)) as f:
+                self._json[rel] = json.load(f)
+        return self._json[rel]
+
+    def text(self, rel: str) -> str:
+        with open(os.path.join(self.root, rel)) as f:
+            return f.read()
+
+    def front(self, rel: str) -> Front:
+        if rel not in self._fronts:
+            self._fronts[rel] = Front(rel, self.json(rel))
+        return self._fronts[rel]
+
+    def glob(self, pattern: str) -> list[str]:
+        full = glob.glob(os.path.join(self.root, pattern), recursive=True)
+        return sorted(os.path.relpath(p, self.root) for p in full)
+
+    def fronts(self) -> list[str]:
+        """Every committed front, found by walking the results: each JSON file that holds
+        evaluated preferences (`prefs` rows with a `return`), whatever its name."""
+        found = []
+        for d, _, names in os.walk(os.path.join(self.root, RESULTS)):
+            for name in names:
+                rel = os.path.relpath(os.path.join(d, name), self.root)
+                if name.endswith(".json") and _is_front(self.json(rel)):
+                    found.append(rel)
+        return sorted(found)
+
+
+def _is_front(data) -> bool:
+    rows = data.get("prefs") if isinstance(data, dict) else None
+    return (
+        isinstance(rows, list) and bool(rows) and isinstance(rows[0], dict) and "return" in rows[0]
+    )
+
+
+# ---------------------------------------------------------------------- every front
+
+
+def check_front(repo: Repo, rel: str, hv_ref) -> Findings:
+    """What a `front.json` states of itself: its hypervolumes at its reference (which must
+    be its family's), the policies outside it, the non-dominated flags and count,
+    sparsity, expected utility and env steps."""
+    f, out = repo.front(rel), Findings()
+    d = f.data
+    out.equal(f"{rel} hv_ref", [float(v) for v in d["hv_ref"]], [float(v) for v in hv_ref])
+    out.close(f"{rel} hypervolume", d["hypervolume"], f.hv(hv_ref))
+    out.close(
+        f"{rel} hypervolume_discounted",
+        d["hypervolume_discounted"],
+        hypervolume(f.discounted, hv_ref),
+    )
+    out.equal(f"{rel} nondominated flags", [r["nondominated"] for r in d["prefs"]], f.nd.tolist())
+    out.equal(f"{rel} cardinality", d["cardinality"], int(f.nd.sum()))
+    gone = outside(f.returns, hv_ref)
+    if "outside_hv_ref" in d:  # fronts written before it was recorded lack it
+        out.equal(f"{rel} outside_hv_ref", d["outside_hv_ref"], gone)
+        inside = [r["inside_hv_ref"] for r in d["prefs"]]
+        out.equal(f"{rel} inside_hv_ref", inside, [i not in gone for i in range(len(inside))])
+    out.close(f"{rel} sparsity", d["sparsity"], sparsity(f.returns))
+    weights = front_json_weights(f.returns.shape[1])
+    out.close(
+        f"{rel} expected_utility", d["expected_utility"], expected_utility(f.returns, weights)
+    )
+    if "conditioned" in d:  # one network: the training's own steps, the evaluation's beside
+        out.equal(f"{rel} env_steps_per_pref", d["env_steps_per_pref"], None)
+        out.equal(f"{rel} networks", d["conditioned"]["networks"], 1)
+        out.equal(f"{rel} eval_prefs", d["conditioned"]["eval_prefs"], len(f.prefs))
+    else:
+        out.equal(
+            f"{rel} env_steps_total", d["env_steps_total"], d["env_steps_per_pref"] * len(f.prefs)
+        )
+    if d.get("config", {}).get("train", {}).get("kind"):  # older fronts do not record it
+        out.extend(
+            check_env_steps(
+                f, rel, d["env_steps_total"], d.get("conditioned", {}).get("eval_env_steps")
+            )
+        )
+    for i, r in enumerate(d["prefs"]):
+        if "mean_x_velocity" in r:
+            out.extend(check_velocity(f, i))
+    return out
+
+
+# Tasks whose forward return gives the mean x velocity: `x_velocity` per step plus a
+# healthy reward of 1 (MO-Gymnasium's walker2d_v5, hopper_v5 with 3 objectives), or
+# nothing else (half_cheetah_v5, swimmer_v5); the others add control or contact costs.
+FORWARD_IS_VELOCITY_PLUS = {"walker2d": 1.0, "hopper": 1.0, "halfcheetah": 0.0, "swimmer": 0.0}
+
+
+def check_velocity(f: Front, i: int) -> Findings:
+    """A recorded mean x velocity agrees with the row's forward return and length."""
+    out = Findings()
+    healthy = FORWARD_IS_VELOCITY_PLUS.get(f.env)
+    if healthy is None:
+        return out
+    v, (n, r0) = f.mean_x_velocity(i), (f.lengths[i], f.returns[i, 0])
+    where = f"{f.path} row {i} mean_x_velocity"
+    if healthy:
+        lo, hi = walker_speed(r0, n)
+    else:
+        lo = hi = r0 / n
+    # float32 sums over the episodes' steps
+    out.within(where, v, lo, hi, slack=1e-4 * max(1.0, abs(v)))
+    return out
+
+
+# ---------------------------------------------------------------------- summaries
+
+
+def check_walker2d_front_summary(repo: Repo, rel: str) -> Findings:
+    """A `walker2d_front.py` summary: per direction, from `<direction>/front.json`."""
+    s, out = repo.json(rel), Findings()
+    base = os.path.dirname(rel)
+    directions = s.get("directions", {})
+    if not directions:
+        out.append(f"{rel}: states no direction")
+    fronts = {}
+    for name, d in directions.items():
+        path = f"{base}/{name}/front.json"
+        if not repo.exists(path):
+            out.append(f"{rel} {name}: no {path}")
+            continue
+        f = fronts[name] = repo.front(path)
+        where = f"{rel} {name}"
+        out.close(f"{where} hypervolume", d["hypervolume"], f.hv(d["hv_ref"]))
+        out.equal(f"{where} hv_ref", d["hv_ref"], f.data["hv_ref"])
+        out.equal(f"{where} outside_hv_ref", d["outside_hv_ref"], outside(f.returns, d["hv_ref"]))
+        for entry in d.get("hypervolume_by_ref", []):
+            out.close(
+                f"{where} HV at {entry['hv_ref']}", entry["hypervolume"], f.hv(entry["hv_ref"])
+            )
+            out.equal(
+                f"{where} outside {entry['hv_ref']}",
+                entry["outside"],
+                outside(f.returns, entry["hv_ref"]),
+            )
+        out.equal(f"{where} cardinality", d["cardinality"], int(f.nd.sum()))
+        out.equal(
+            f"{where} distinct_points", d["distinct_points"], len(np.unique(f.returns, axis=0))
+        )
+        out.close(f"{where} rank correlation", d["pref0_forward_rank_correlation"], f.rho)
+        out.equal(f"{where} policies", len(d["policies"]), len(f.prefs))
+        for i, pol in enumerate(d["policies"]):
+            w = f"{where} policy {i}"
+            out.equal(f"{w} pref", pol["pref"], f.prefs[i].tolist())
+            out.equal(
+                f"{w} returns",
+                [pol["forward_return"], pol["control_return"]],
+                f.returns[i].tolist(),
+            )
+            out.equal(f"{w} length", pol["episode_length"], f.lengths[i])
+            out.extend(check_speed_fields(w, pol, f.returns[i], f.lengths[i]))
+    if "union_nondominated" in s and len(fronts) == 2:
+        (a, fa), (b, fb) = fronts.items()
+        nd = nondominated(np.vstack([fa.returns, fb.returns]))
+        want = {a: int(nd[: len(fa.prefs)].sum()), b: int(nd[len(fa.prefs) :].sum())}
+        out.equal(f"{rel} union_nondominated", s["union_nondominated"], want)
+    return out
+
+
+def check_speed_fields(where: str, pol: dict, ret, length) -> Findings:
+    """The speed, control per step and falls a summary states of one evaluated policy:
+    exact where its length fixes the falls, else a range inside the one its data allow."""
+    out = Findings()
+    speed, ctrl, (f_lo, f_hi) = (
+        walker_speed(ret[0], length),
+        walker_control(ret[1], length),
+        falls(length),
+    )
+    if pol.get("falls_per_episode") is not None:
+        out.within(f"{where} falls", pol["falls_per_episode"], f_lo, f_hi)
+        f = pol["falls_per_episode"]
+        out.close(f"{where} speed", pol["mean_speed_m_per_s"], (ret[0] - length + f) / length)
+        out.close(
+            f"{where} control/step", pol["mean_control_per_step"], (length - f - ret[1]) / length
+        )
+    else:
+        for key, (lo, hi) in (
+            ("mean_speed_m_per_s_range", speed),
+            ("mean_control_per_step_range", ctrl),
+        ):
+            for v in pol.get(key) or ():
+                out.within(f"{where} {key}", v, lo, hi)
+    return out
+
+
+def check_ablation(repo: Repo, rel: str) -> Findings:
+    """A depth/width ablation (`walker2d_ablation.py`): per size, its seeds' evaluated
+    returns, lengths, speeds and their mean and spread, from `<size>/front.json`."""
+    s, out = repo.json(rel), Findings()
+    for size in s["sizes"]:
+        path = f"{os.path.dirname(rel)}/{size['name']}/front.json"
+        f, where = repo.front(path), f"{rel} {size['name']}"
+        out.equal(f"{where} forward returns", size["eval_forward_return"], f.returns[:, 0].tolist())
+        out.equal(f"{where} control returns", size["eval_control_return"], f.returns[:, 1].tolist())
+        out.equal(f"{where} lengths", size["eval_episode_length"], f.lengths.tolist())
+        out.close(f"{where} forward mean", size["eval_forward_mean"], f.returns[:, 0].mean())
+        out.close(f"{where} forward sd", size["eval_forward_std"], f.returns[:, 0].std(ddof=1))
+        for i in range(len(f.prefs)):
+            pol = {
+                "falls_per_episode": size["eval_falls_per_episode"][i],
+                "mean_speed_m_per_s": size["eval_speed_m_per_s"][i],
+                "mean_control_per_step": size["eval_control_per_step"][i],
+            }
+            out.extend(check_speed_fields(f"{where} seed {i}", pol, f.returns[i], f.lengths[i]))
+    return out
+
+
+def check_curves(repo: Repo, rel: str) -> Findings:
+    """A `walker2d_curves.py` record: per preset, its seeds' evaluated policies and their
+    mean speed and length, from `<preset>/front.json` (the paper preset's may be read
+    from another record's)."""
+    s, out = repo.json(rel), Findings()
+    for name, c in s["configs"].items():
+        path = f"{os.path.dirname(rel)}/{name}/front.json"
+        if not repo.exists(path):
+            continue  # kept by the record named in `docs`
+        f, where = repo.front(path), f"{rel} {name}"
+        out.equal(f"{where} policies", len(c["policies"]), len(f.prefs))
+        mids = []
+        for i, pol in enumerate(c["policies"]):
+            out.equal(
+                f"{where} seed {i} returns",
+                [pol["forward_return"], pol["control_return"]],
+                f.returns[i].tolist(),
+            )
+            out.equal(f"{where} seed {i} length", pol["episode_length"], f.lengths[i])
+            out.extend(check_speed_fields(f"{where} seed {i}", pol, f.returns[i], f.lengths[i]))
+            mids.append(f.speed(i))
+        lo, hi = (sum(v) / len(v) for v in zip(*mids, strict=True))
+        out.within(f"{where} mean speed", c["eval_speed_mean"], lo, hi)
+        out.close(f"{where} mean length", c["eval_length_mean"], f.lengths.mean())
+    return out
+
+
+# COLA (Li et al., NeurIPS 2025), Table 1, 3M env steps, mean ± sd of 5 runs: per task
+# and method ((HV, sd), (UT, sd)); its PGMORL column is COLA's run of PGMORL's code.
+COLA_TABLE_1 = {
+    "HalfCheetah-2d": {
+        "Envelope SAC": ((5.54e6, 0.47e6), (2190, 110)),
+        "PGMORL": ((5.13e6, 0.06e6), (2140, 30)),
+        "Q-Pensieve": ((5.66e6, 0.16e6), (2220, 60)),
+        "CAPQL": ((5.84e6, 0.14e6), (2240, 30)),
+        "COLA": ((7.91e6, 0.06e6), (2900, 70)),
+    },
+    "Hopper-2d": {
+        "Envelope SAC": ((2.00e7, 0.10e7), (4150, 90)),
+        "PGMORL": ((1.90e7, 0.07e7), (4120, 70)),
+        "Q-Pensieve": ((2.06e7, 0.08e7), (4210, 70)),
+        "CAPQL": ((1.65e7, 0.07e7), (3950, 90)),
+        "COLA": ((2.11e7, 0.03e7), (4280, 20)),
+    },
+    "Ant-2d": {
+        "Envelope SAC": ((6.90e6, 0.06e6), (2380, 10)),
+        "PGMORL": ((5.40e6, 0.62e6), (2120, 110)),
+        "Q-Pensieve": ((6.93e6, 0.16e6), (2390, 30)),
+        "CAPQL": ((7.07e6, 0.98e6), (2430, 150)),
+        "COLA": ((1.133e7, 0.276e7), (3040, 400)),
+    },
+    "Walker-2d": {
+        "Envelope SAC": ((4.47e6, 0.08e6), (1950, 30)),
+        "PGMORL": ((4.50e6, 0.16e6), (1940, 50)),
+        "Q-Pensieve": ((4.37e6, 0.19e6), (1910, 40)),
+        "CAPQL": ((3.35e6, 0.26e6), (1780, 50)),
+        "COLA": ((4.87e6, 0.05e6), (2020, 30)),
+    },
+    "Hopper-3d": {
+        "Envelope SAC": ((3.29e10, 0.27e10), (3210, 40)),
+        "PGMORL": ((3.35e10, 0.07e10), (3210, 10)),
+        "Q-Pensieve": ((3.29e10, 0.20e10), (3200, 40)),
+        "CAPQL": ((1.92e10, 0.23e10), (2700, 110)),
+        "COLA": ((3.41e10, 0.04e10), (3220, 60)),
+    },
+    "Ant-3d": {
+        "Envelope SAC": ((5.76e9, 0.09e9), (1600, 10)),
+        "PGMORL": ((7.80e9, 0.52e9), (1900, 20)),
+        "Q-Pensieve": ((7.32e9, 2.97e9), (1820, 240)),
+        "CAPQL": ((9.88e9, 0.89e9), (2020, 60)),
+        "COLA": ((1.858e10, 0.076e10), (2680, 40)),
+    },
+}
+
+
+def check_published(where: str, entries: list) -> Findings:
+    """Published numbers as a results file cites them, against COLA's Table 1."""
+    out = Findings()
+    seen = set()
+    for p in entries:
+        printed = COLA_TABLE_1.get(p["task"], {}).get(p["method"])
+        key = (p["task"], p["method"], p["metric"])
+        if printed is None or p["metric"] not in ("HV", "EU"):
+            out.append(f"{where} {key}: not in COLA's Table 1")
+            continue
+        seen.add(key)
+        value, sd = printed[0 if p["metric"] == "HV" else 1]
+        out.close(f"{where} {key} value", p["value"], value)
+        out.close(f"{where} {key} sd", p.get("sd"), sd)
+    every = {(t, m, k) for t, ms in COLA_TABLE_1.items() for m in ms for k in ("HV", "EU")}
+    if every - seen:
+        out.append(f"{where}: leaves out {sorted(every - seen)}")
+    return out
+
+
+def check_conditioned(repo: Repo, rel: str) -> Findings:
+    """`conditioned_front.py`'s summary: each arm and seed from its `front.json`, the
+    means, the published numbers and the cost of more front points."""
+    s, out = repo.json(rel), Findings()
+    base = os.path.dirname(rel)
+    dirs = {
+        "conditioned": f"{base}/conditioned",
+        "independent_9x333k": f"{base}/independent_9x333k",
+        "independent_9x1M": s["reused_9x1M"],
+    }
+    if not s["runs"]:
+        out.append(f"{rel}: states no run")
+    for arm, runs in s["runs"].items():
+        found = sorted(
+            int(p.split("/")[-2][4:]) for p in repo.glob(f"{dirs[arm]}/seed*/front.json")
+        )
+        out.equal(f"{rel} {arm} seeds", sorted(int(k) for k in runs), found)
+        for seed, r in runs.items():
+            f = repo.front(f"{dirs[arm]}/seed{seed}/front.json")
+            w = f"{rel} {arm} seed {seed}"
+            fwd, ctrl = f.forward, f.control
+            out.equal(f"{w} n_prefs", r["n_prefs"], len(f.prefs))
+            out.close(f"{w} hv_pgmorl", r["hv_pgmorl"], PGMORL_WALKER2D.hv(f))
+            out.close(f"{w} hv_project", r["hv_project"], f.hv((-500.0, -3000.0)))
+            out.close(
+                f"{w} expected_utility",
+                r["expected_utility"],
+                expected_utility(f.returns, front_json_weights(2)),
+            )
+            out.equal(f"{w} nondominated", r["nondominated"], int(f.nd.sum()))
+            out.close(f"{w} spearman", r["spearman_p0_forward"], f.rho)
+            out.within(f"{w} forward_end_speed", r["forward_end_speed"], *f.speed(fwd))
+            out.close(f"{w} forward_end_length", r["forward_end_length"], f.lengths[fwd])
+            out.close(
+                f"{w} control_end_control_return",
+                r["control_end_control_return"],
+                f.returns[ctrl, 1],
+            )
+            out.extend(check_env_steps(f, w, r["env_steps_total"], r["eval_env_steps"]))
+            for key in ("wall_s", "train_s", "compile_s"):
+                out.close(f"{w} {key}", r[key], f.data[key])
+        for key, mean in s["means"][arm].items():
+            values = [r[key] for r in runs.values() if r[key] is not None]
+            out.close(f"{rel} {arm} mean {key}", mean, float(np.mean(values)))
+    walker = COLA_TABLE_1["Walker-2d"]
+    named = {m.replace("Envelope SAC", "Envelope-SAC"): v[0][0] for m, v in walker.items()}
+    out.equal(f"{rel} published_hv_3M", s["published_hv_3M"], named)
+    return out
+
+
+def check_env_steps(f: Front, where: str, total, eval_steps) -> Findings:
+    """A front's training env steps (iterations x envs x rollout steps, per preference or
+    for the one network) and, for one network, its evaluation's (episodes x mean
+    lengths, summed)."""
+    out, train = Findings(), f.data["config"]["train"]
+    # per iteration: the rollout's steps, and for the paper's update (Algorithm 2) also
+    # the critics' K TD steps on every environment
+    per_iteration = train["rollout_steps"] + (
+        train["critic_steps"] if train.get("kind") == "paper" else 0
+    )
+    per_program = train["num_iterations"] * train["num_envs"] * per_iteration
+    if "conditioned" in f.data:
+        out.equal(f"{where} env_steps_total", total, per_program)
+        want = EPISODES * f.lengths.sum()
+        out.equal(f"{where} eval_env_steps", eval_steps, int(round(want)))
+    else:
+        out.equal(f"{where} env_steps_total", total, per_program * len(f.prefs))
+        out.equal(f"{where} eval_env_steps", eval_steps, None)
+    return out
+
+
+def forward_row(f: Front) -> dict:
+    return f.data["prefs"][f.forward]
+
+
+def check_mo_mujoco(repo: Repo, rel: str) -> Findings:
+    """`mo_mujoco.py table`'s `table.json`: per task and direction (seed 0) from its
+    `front.json` and the task's PPO reference; per task with seeds, each seed's and the
+    mean's numbers and the winner; the published numbers."""
+    s, out = repo.json(rel), Findings()
+    base = os.path.dirname(rel)
+    rows = {(r["env"], r["scalarization"]): r for r in s["rows"]}
+    found = {tuple(p.split("/")[-3:-1]) for p in repo.glob(f"{base}/*/*/front.json")}
+    found = {(e, d) for e, d in found if d in ("smooth_wc", "linear")}
+    out.equal(f"{rel} rows", sorted(rows), sorted(found))
+    for (env, scal), r in rows.items():
+        f = repo.front(f"{base}/{env}/{scal}/front.json")
+        ref = repo.json(f"{base}/{env}/reference_ppo.json")
+        w = f"{rel} {env} {scal}"
+        end = forward_row(f)
+        out.equal(f"{w} n_prefs", r["n_prefs"], len(f.prefs))
+        out.equal(f"{w} env_steps_per_pref", r["env_steps_per_pref"], f.data["env_steps_per_pref"])
+        out.close(f"{w} hv_morl_baselines", r["hv_morl_baselines"], MORL_BASELINES.hv(f))
+        if "hv_pgmorl" in r:  # the column as it stands
+            out.close(f"{w} hv_pgmorl", r["hv_pgmorl"], PGMORL_V5_COLUMN.hv(f))
+        out.close(
+            f"{w} expected_utility",
+            r["expected_utility"],
+            expected_utility(f.returns, front_json_weights(f.returns.shape[1])),
+        )
+        out.equal(f"{w} nondominated", r["nondominated"], int(f.nd.sum()))
+        out.equal(f"{w} forward_end_pref", r["forward_end_pref"], end["pref"])
+        out.close(
+            f"{w} forward end speed", r["forward_end_mean_x_velocity"], end["mean_x_velocity"]
+        )
+        out.close(f"{w} forward end length", r["forward_end_episode_length"], end["episode_length"])
+        out.close(f"{w} wall_s", r["wall_s"], f.data["wall_s"])
+        budget = f.data["config"]["steps_per_pref"]
+        out.equal(
+            f"{w} PPO's env steps against the front's per preference", ref["env_steps"], budget
+        )
+        out.close(f"{w} PPO speed", r["reference_mean_x_velocity"], ref["mean_x_velocity"])
+        out.close(f"{w} PPO wall", r["reference_wall_s"], ref["wall_s"])
+        out.close(
+            f"{w} speed_ratio", r["speed_ratio"], end["mean_x_velocity"] / ref["mean_x_velocity"]
+        )
+        # one program for the front against P separate PPO runs, with a margin of 1.5
+        out.close(
+            f"{w} wall_ratio",
+            r["wall_ratio"],
+            f.data["wall_s"] * 1.5 / (len(f.prefs) * ref["wall_s"]),
+        )
+    for env, c in s["seeds"].items():
+        out.extend(check_mo_mujoco_seeds(repo, f"{rel} seeds {env}", f"{base}/{env}", c))
+    out.equal(f"{rel} published", s["published"], repo.json(f"{base}/published.json"))
+    out.extend(check_published(f"{base}/published.json", repo.json(f"{base}/published.json")))
+    return out
+
+
+def mo_mujoco_seeds(repo: Repo, task: str) -> list[int]:
+    """The seeds with both directions' fronts (seed 0 at the task's top)."""
+    seeds = [0] + sorted(int(p.split("/")[-1][4:]) for p in repo.glob(f"{task}/seed*"))
+    return [
+        s
+        for s in seeds
+        if all(
+            repo.exists(f"{task}{'' if s == 0 else f'/seed{s}'}/{d}/front.json")
+            for d in ("smooth_wc", "linear")
+        )
+    ]
+
+
+def check_mo_mujoco_seeds(repo: Repo, where: str, task: str, c: dict) -> Findings:
+    out = Findings()
+    seeds = mo_mujoco_seeds(repo, task)
+    out.equal(f"{where} seeds", c["seeds"], seeds)
+    fronts = {
+        d: [repo.front(f"{task}{'' if s == 0 else f'/seed{s}'}/{d}/front.json") for s in seeds]
+        for d in ("smooth_wc", "linear")
+    }
+    measures = {
+        "hv_morl_baselines": MORL_BASELINES.hv,
+        "hv_pgmorl": PGMORL_V5_COLUMN.hv,  # the column as it stands
+        "forward": lambda f: forward_row(f)["mean_x_velocity"],
+    }
+    entries = {**c["hypervolume"], "forward": c["forward_speed"]}
+    for key, e in entries.items():
+        values = {d: [measures[key](f) for f in fronts[d]] for d in fronts}
+        for d in fronts:
+            for i, (a, b) in enumerate(zip(e[d], values[d], strict=True)):
+                out.close(f"{where} {key} {d} seed {seeds[i]}", a, b)
+            out.close(f"{where} {key} {d} mean", e["mean"][d], float(np.mean(values[d])))
+        a, b = values["smooth_wc"], values["linear"]
+        winner = "smooth_wc" if min(a) > max(b) else "linear" if min(b) > max(a) else None
+        out.equal(f"{where} {key} winner", e["winner"], winner)
+    out.equal(f"{where} prefs", c["prefs"], fronts["smooth_wc"][0].prefs.tolist())
+    for d in fronts:
+        mean = np.mean([f.returns for f in fronts[d]], axis=0)
+        for i, (a, b) in enumerate(zip(np.ravel(c["mean_return"][d]), mean.ravel(), strict=True)):
+            out.close(f"{where} mean return {d} [{i}]", a, b)
+    return out
+
+
+# ---------------------------------------------------------------------- families
+
+
+@dataclass(frozen=True)
+class Family:
+    """One kind of committed result: where its fronts are, the reference point each
+    `front.json` states its hypervolume at (per task), and the files its numbers feed,
+    each with its check (`(glob, check(repo, path))`, every glob relative to the
+    results). The docs' numbers are checked by `DOC_TABLES` and `DOC_VALUES`."""
+
+    name: str
+    fronts: tuple[str, ...]
+    hv_ref: dict
+    feeds: tuple[tuple[str, Callable[[Repo, str], Findings]], ...] = ()
+
+
+WALKER2D = {"walker2d": (-500.0, -3000.0)}  # (-T, -6T): Walker2d's stated reference
+BRAX_WALKER2D = {"walker2d": (-100.0, -100.0)}  # the earlier default, on Brax's model
+# each v5 task's stated reference (`default_hv_ref`): per objective a floor per step
+# times T, written into every front.json
+V5_TASKS = WALKER2D | {
+    "halfcheetah": (-5000.0, -3000.0),
+    "hopper": (-500.0, -2258.0, -1500.0),
+    "hopper-2obj": (-501.5, -2259.5),
+    "swimmer": (-250.0, -1000.0),
+    "ant": (-2500.0, -2500.0, -4500.0),
+    "ant-2obj": (-4500.0, -4500.0),
+    "humanoid": (-6500.0, -6500.0),
+}
+
+
+FAMILIES = (
+    Family(
+        "the first command (`wcac-sweep --n-prefs 9`), chosen and final policies",
+        ("cli_default_front_select5/seed*/front.json", "cli_default_front_final/seed*/front.json"),
+        WALKER2D,
+    ),
+    Family(
+        "walker2d_front.py: both directions on the paper's nine preferences",
+        (
+            "walker2d_front_practical_v5*/**/front.json",
+            "walker2d_front_paper_v5/*/front.json",
+            "walker2d_front_paper_warm_brax_*/*/front.json",
+        ),
+        WALKER2D,
+        (("walker2d_front_*/**/summary.json", check_walker2d_front_summary),),
+    ),
+    Family(
+        "walker2d_curves.py: the [1, 0] end over three seeds",
+        ("walker2d_curves_*/*/front.json",),
+        WALKER2D,
+        (("walker2d_curves_*/curves.json", check_curves),),
+    ),
+    Family(
+        "walker2d_ablation.py on the v5 model: depth and width",
+        ("walker2d_ablation_practical_*/*/front.json", "walker2d_ablation_paper_v5*/*/front.json"),
+        WALKER2D,
+        (
+            ("walker2d_ablation_practical_*/ablation.json", check_ablation),
+            ("walker2d_ablation_paper_v5*/ablation.json", check_ablation),
+        ),
+    ),
+    Family(
+        "walker2d_ablation.py on Brax's model",
+        ("walker2d_ablation_paper_warm_brax_*/*/front.json",),
+        BRAX_WALKER2D,
+        (("walker2d_ablation_paper_warm_brax_*/ablation.json", check_ablation),),
+    ),
+    Family(
+        "conditioned_front.py: one network against independent policies",
+        ("conditioned_walker2d/**/front.json",),
+        WALKER2D,
+        (("conditioned_walker2d/summary.json", check_conditioned),),
+    ),
+    Family(
+        "mo_mujoco.py: the MO-Gymnasium MuJoCo suite",
+        ("mo_mujoco/**/front.json",),
+        V5_TASKS,
+        (("mo_mujoco/table.json", check_mo_mujoco),),
+    ),
+    Family(
+        "forward-end probes: independent runs of one task's [1, 0]",
+        ("*_forward_end_practical_v5/*/front.json",),
+        V5_TASKS,
+    ),
+    Family(
+        "the sweep command's benchmarks",
+        ("bench_cli_*/front*.json",),
+        BRAX_WALKER2D,
+    ),
+)
+
+
+def check_families(repo: Repo, families=FAMILIES) -> Findings:
+    """Every committed front belongs to exactly one family and states what its data give;
+    every file a family feeds states what its fronts give."""
+    out, owner = Findings(), {}
+    for fam in families:
+        for pattern in fam.fronts:
+            for rel in repo.glob(f"{RESULTS}/{pattern}"):
+                if rel in owner and owner[rel] != fam.name:
+                    out.append(f"{rel}: claimed by {owner[rel]!r} and {fam.name!r}")
+                owner[rel] = fam.name
+    walked = repo.fronts()
+    for rel in walked:
+        if rel not in owner:
+            out.append(f"{rel}: no family audits it (add one to FAMILIES)")
+    by_name = {fam.name: fam for fam in families}
+    for rel in walked:
+        if rel not in owner:
+            continue
+        fam, env = by_name[owner[rel]], repo.front(rel).env
+        if env not in fam.hv_ref:
+            out.append(f"{rel}: {fam.name!r} states no reference for {env!r}")
+            continue
+        out.extend(check_front(repo, rel, fam.hv_ref[env]))
+    for fam in families:
+        for pattern, check in fam.feeds:
+            paths = repo.glob(f"{RESULTS}/{pattern}")
+            if not paths:
+                out.append(f"{fam.name}: no {pattern}")
+            for rel in paths:
+                out.extend(check(repo, rel))
+    return out
+
+
+# ---------------------------------------------------------------------- the documents
+
+DOCS = ("README.md", "docs/algorithm.md", "docs/environments.md", "docs/performance.md")
+DOCS += ("docs/results.md", "docs/recsys.md", "docs/distributed.md")
+BLOCK = re.compile(r"<!-- table:([\w-]+) -->\n(.*?)<!-- /table -->", re.S)
+VALUE = re.compile(r"<!-- value:([\w-]+) -->(.*?)<!-- /value -->", re.S)
+LINK = re.compile(r"\[((?:[^\]\[]|\[[^\]]*\])*)\]\(([^)\s]+)\)")
+# a number as the documents print it: thousands commas, a typographic minus, a mantissa
+# and exponent (`4.65e6`); not the digits of a name (`hopper-2obj`, `3M`, `p₀`)
+NUMBER = re.compile(r"(?<![\w.])[−+-]?\d+(?:,\d{3})*(?:\.\d+)?(?:e[−+-]?\d+)?(?![\w.]\d|[\w])")
+
+
+def numbers(text: str) -> list[tuple[float, float]]:
+    """Each number printed in `text`, with half a unit of its last printed digit."""
+    out = []
+    for m in NUMBER.finditer(text):
+        s = m.group(0).replace("−", "-").replace(",", "")
+        mantissa, _, exponent = s.partition("e")
+        digits = len(mantissa.partition(".")[2])
+        scale = 10.0 ** int(exponent or 0)
+        out.append((float(s), 0.5 * 10.0**-digits * scale * (1 + 1e-6) + 1e-12))
+    return out
+
+
+@dataclass
+class Table:
+    """A generated table of a document: its cells with links replaced by their text,
+    and each cell's first link target (relative to the repository)."""
+
+    doc: str
+    name: str
+    header: list[str]
+    header_links: list[str | None]
+    rows: list[list[str]]
+    links: list[list[str | None]]
+    raw_rows: list[str]
+
+    def column(self, header: str) -> int:
+        return self.header.index(header)
+
+
+def _cells(line: str, doc: str) -> tuple[list[str], list[str | None]]:
+    cells = [c.strip() for c in line.strip().strip("|").split(" | ")]
+    texts, links = [], []
+    for c in cells:
+        m = LINK.search(c)
+        links.append(
+            os.path.normpath(os.path.join(os.path.dirname(doc), m.group(2))) if m else None
+        )
+        texts.append(LINK.sub(lambda k: k.group(1), c))
+    return texts, links
+
+
+def doc_blocks(repo: Repo):
+    """`({(doc, name): Table}, {(doc, name): (text, links)})` of every generated block."""
+    tables, values = {}, {}
+    for doc in DOCS:
+        if not repo.exists(doc):
+            continue
+        text = repo.text(doc)
+        for name, body in BLOCK.findall(text):
+            lines = [ln for ln in body.strip().splitlines() if ln.startswith("|")]
+            header, header_links = _cells(lines[0], doc)
+            rows = [_cells(ln, doc) for ln in lines[2:]]
+            tables[(doc, name)] = Table(
+                doc,
+                name,
+                header,
+                header_links,
+                [r[0] for r in rows],
+                [r[1] for r in rows],
+                lines[2:],
+            )
+        for name, body in VALUE.findall(text):
+            links = [
+                os.path.normpath(os.path.join(os.path.dirname(doc), m.group(2)))
+                for m in LINK.finditer(body)
+            ]
+            values[(doc, name)] = (LINK.sub(lambda k: k.group(1), body), links)
+    return tables, values
+
+
+# What a cell must print, in order: a number (equal to the printed digits), an interval
+# `(lo, hi)` of what the data allow (a speed with unknown falls) or a string it contains.
+Want = float | tuple | str
+
+
+def compare(where: str, text: str, wants: list) -> Findings:
+    out, printed = Findings(), numbers(text)
+    expected = [w for w in wants if not isinstance(w, str)]
+    for w in wants:
+        if isinstance(w, str) and w not in text:
+            out.append(f"{where}: prints {text!r}, its data give {w!r}")
+    if len(printed) != len(expected):
+        out.append(f"{where}: prints {text!r}, its data give {len(expected)} numbers {expected}")
+        return out
+    for (value, tol), w in zip(printed, expected, strict=True):
+        lo, hi = (w, w) if not isinstance(w, tuple) else w
+        if not lo - tol <= value <= hi + tol:
+            out.append(f"{where}: prints {text!r}, its data give {expected}")
+            break
+    return out
+
+
+def check_table(t: Table, wants: Iterable[tuple[int, str | int, list | None]]) -> Findings:
+    """`wants`: `(row, column header or index, what the cell must print)` (`None`: a label,
+    or a number of another kind of result, said where yielded); every cell of every row
+    must be named (row -1 is the header row)."""
+    out, seen = Findings(), set()
+    for i, head, want in wants:
+        if isinstance(head, str) and head not in t.header:
+            continue  # a column the table no longer has
+        col = head if isinstance(head, int) else t.column(head)
+        seen.add((i, col))
+        if want is None:
+            continue
+        text = t.header[col] if i < 0 else t.rows[i][col]
+        out.extend(compare(f"{t.doc} table {t.name} row {i} '{t.header[col]}'", text, want))
+    for i in range(len(t.rows)):
+        for col, head in enumerate(t.header):
+            if (i, col) not in seen:
+                out.append(f"{t.doc} table {t.name} row {i} '{head}': not audited")
+    return out
+
+
+def speed_end(f: Front) -> list:
+    """`[1, 0]`'s speed range and mean length."""
+    return [f.speed(f.forward), f.lengths[f.forward]]
+
+
+def fallen(f: Front) -> list:
+    """Each preference whose mean length is under the time limit, with that length."""
+    return [v for i in range(len(f.prefs)) if f.lengths[i] < T for v in (*f.prefs[i], f.lengths[i])]
+
+
+def cli_default_wants(t: Table, repo: Repo) -> Iterator:
+    for i, link in enumerate(t.links):
+        f = repo.front(link[0])
+        g = f.final()
+        yield i, "seed", [float(re.search(r"seed(\d+)", f.path).group(1))]
+        yield i, "non-dominated: final → chosen", [g.nd.sum(), f.nd.sum(), len(f.prefs)]
+        yield i, "Spearman (`p₀`, forward)", [g.rho, f.rho]
+        yield i, "`[1, 0]`: speed, mean length", [*speed_end(g), *speed_end(f)]
+        yield i, "`[0, 1]` control return", [g.returns[g.control, 1], f.returns[f.control, 1]]
+        yield i, "falls in some episodes (mean length), chosen", fallen(f)
+        yield i, "HV, stated ref", [g.hv(WALKER2D["walker2d"]), f.hv(WALKER2D["walker2d"])]
+        yield i, "wall s", [f.data["wall_s"]]
+
+
+def cli_final_wants(t: Table, repo: Repo) -> Iterator:
+    for i, link in enumerate(t.links):
+        f = repo.front(link[0])
+        yield i, "seed", [float(re.search(r"seed(\d+)", f.path).group(1))]
+        yield i, "non-dominated", [f.nd.sum(), len(f.prefs)]
+        yield i, "Spearman", [f.rho]
+        yield i, "`[1, 0]`: speed, mean length", speed_end(f)
+        yield i, "`[0, 1]` control", [f.returns[f.control, 1]]
+        yield i, "falls in some episodes (mean length)", fallen(f)
+        yield i, "HV, stated ref", [f.hv(WALKER2D["walker2d"])]
+        yield i, "wall s", [f.data["wall_s"]]
+
+
+def film_wants(t: Table, repo: Repo) -> Iterator:
+    run = os.path.dirname(t.header_links[-1])
+    f = repo.front(f"{run}/front.json")
+    for i in range(len(t.rows)):
+        yield i, "`p`", list(f.prefs[i])
+        yield i, "forward, control return", list(f.returns[i])
+        yield i, "length", [f.lengths[i]]
+        yield i, "speed m/s", [f.speed(i)]
+        yield i, "control/step", [f.control_per_step(i)]
+        yield i, len(t.header) - 1, None  # film.json: distances measured in the film
+
+
+def per_pref_wants(t: Table, repo: Repo) -> Iterator:
+    """Two fronts side by side, one row per preference: each front's columns follow the
+    header cell that links to it."""
+    groups = [(j, repo.front(link)) for j, link in enumerate(t.header_links) if link]
+    for i in range(len(t.rows)):
+        yield i, "`p`", list(groups[0][1].prefs[i])
+        for j, f in groups:
+            assert f.prefs[i].tolist() == groups[0][1].prefs[i].tolist()
+            cells = [list(f.returns[i]), [f.lengths[i]], [f.speed(i)], [f.control_per_step(i)]]
+            for k, want in enumerate(cells):
+                yield i, j + k, want
+
+
+def header_ref(head: str) -> tuple[float, float]:
+    return tuple(v for v, _ in numbers(head))
+
+
+def summary_wants(t: Table, repo: Repo) -> Iterator:
+    """Per front: its hypervolume under each reference in the headers (and the policies
+    outside it), its non-dominated points (and, for a pair of directions, in their union),
+    order and wall time."""
+    fronts = [repo.front(link[0]) for link in t.links]
+    for i, f in enumerate(fronts):
+        for head in t.header:
+            if head.startswith("HV ("):
+                ref = header_ref(head)
+                gone = len(outside(f.returns, ref))
+                yield i, head, [f.hv(ref)] + ([gone] if gone else [])
+        own = [f.nd.sum(), len(f.prefs)]
+        head = "non-dominated (own; in the union)"
+        if len(numbers(t.rows[i][t.column(head)])) == 3:  # rows come in pairs of directions
+            other = fronts[i ^ 1]
+            union = nondominated(np.vstack([f.returns, other.returns]))[: len(f.prefs)]
+            own.append(union.sum())
+        yield i, head, own
+        yield i, "front", None
+        yield i, "Spearman `p₀` vs forward", [f.rho]
+        yield i, "wall s", [f.data["wall_s"]]
+
+
+W = f"{RESULTS}/walker2d_front_practical_v5"
+# The fronts behind each row of the tables that judge configurations over seeds: the
+# row's label -> (the glob of its seeds' fronts, how many of the first seeds, whether
+# the final policies of fronts that chose among their last ones).
+RULE_ROWS = {
+    "preset": (f"{W}_e5x16/seed*/smooth_wc", None, False),
+    "`smooth_wc`, preset": (f"{W}_e5x16/seed*/smooth_wc", 3, False),
+    "`linear`, preset": (f"{W}_e5x16{{,_linear}}/seed*/linear", None, False),
+    "preset, final policies (committed)": (f"{W}_e5x16/seed*/smooth_wc", None, False),
+    "the same trainings' final policies": (f"{W}_e5x16_select5/seed*/smooth_wc", None, True),
+    "**best of the last 5 (the default)**": (f"{W}_e5x16_select5/seed*/smooth_wc", None, False),
+    "best of the last 5 (today's default)": (f"{W}_e5x16_select5/seed*/smooth_wc", None, False),
+    "preset (margin 0.1, μ 1)": (f"{W}_e5x16/seed*/smooth_wc", None, False),
+    "`--utopia-margin 0.05`": (f"{W}_e5x16_margin005/seed*/smooth_wc", None, False),
+    "`--mu 5`": (f"{W}_e5x16_mu5/seed*/smooth_wc", None, False),
+    "preset (margin 0.1, μ 1, 16 × 128, constant step)": (f"{W}_e5x16/seed*/smooth_wc", 3, False),
+    "`--utopia-margin 0.02`": (f"{W}_e5x16_margin002/seed*/smooth_wc", None, False),
+    "`--anneal-lr`": (f"{W}_e5x16_anneal/seed*/smooth_wc", None, False),
+    "`--envs-per-pref 32 --rollout-steps 64`": (f"{W}_e5x16_n32/seed*/smooth_wc", None, False),
+    "`--augment 0.05`": (f"{W}_e5x16_aug005/seed*/smooth_wc", None, False),
+    "`--augment 0.01`": (f"{W}_e5x16_aug001/smooth_wc", None, False),
+    "`--j-ub 400,100` (fixed utopia)": (f"{W}_e5x16_fixed_utopia/smooth_wc", None, False),
+    "5 epochs × 32 minibatches": (f"{W}_e5x32/smooth_wc", None, False),
+}
+# per table, the rows whose label means another set than `RULE_ROWS`' (the one-seed table)
+RULE_ROWS_IN = {"variants_1": {"preset": (f"{W}_e5x16/seed0/smooth_wc", None, False)}}
+
+
+def seed_of(path: str) -> int:
+    m = re.search(r"/seed(\d+)/", path)
+    return int(m.group(1)) if m else 0
+
+
+def rule_fronts(repo: Repo, table: str, label: str) -> list[Front]:
+    pattern, n, final = RULE_ROWS_IN.get(table, {}).get(label) or RULE_ROWS[label]
+    heads, tail = pattern.split("{", 1) if "{" in pattern else (pattern, None)
+    patterns = [pattern]
+    if tail is not None:  # one brace group of alternatives
+        choices, rest = tail.split("}", 1)
+        patterns = [heads + c + rest for c in choices.split(",")]
+    paths = sorted({p for q in patterns for p in repo.glob(f"{q}/front.json")}, key=seed_of)
+    fronts = [repo.front(p) for p in paths[:n]]
+    return [f.final() for f in fronts] if final else fronts
+
+
+def walks(f: Front) -> tuple[int, int]:
+    """Whether `[1, 0]` walks (2.5 m/s or faster over 450 steps or more): `(1, 1)` surely,
+    `(0, 0)` surely not, `(0, 1)` where the unknown falls leave it open."""
+    (lo, hi), n = f.speed(f.forward), f.lengths[f.forward]
+    return int(lo >= 2.5 and n >= 450), int(hi >= 2.5 and n >= 450)
+
+
+def rule_wants(t: Table, repo: Repo) -> Iterator:
+    ref = WALKER2D["walker2d"]
+    for i, row in enumerate(t.rows):
+        fronts = rule_fronts(repo, t.name, row[0])
+        yield i, "configuration", None
+        nds = [int(f.nd.sum()) for f in fronts]
+        walk = [walks(f) for f in fronts]
+        yield i, "seeds", [len(fronts)]
+        yield i, "non-dominated, per seed", nds
+        yield i, "≥ 7 of 9", [sum(n >= 7 for n in nds)]
+        yield i, "total", [sum(nds), sum(len(f.prefs) for f in fronts)]
+        yield i, "`[1, 0]` walks", [(sum(a for a, _ in walk), sum(b for _, b in walk))]
+        yield i, "Spearman ≥ 0.9", [sum(f.rho >= 0.9 - 1e-9 for f in fronts)]
+        yield i, "`[0, 1]` control ≥ 400", [sum(f.returns[f.control, 1] >= 400 for f in fronts)]
+        yield i, "HV, stated ref, mean", [np.mean([f.hv(ref) for f in fronts])]
+        yield i, "HV (−100, −100), mean", [np.mean([f.hv((-100.0, -100.0)) for f in fronts])]
+
+
+def seeds_wants(t: Table, repo: Repo) -> Iterator:
+    ref = WALKER2D["walker2d"]
+    for i, link in enumerate(t.links):
+        f = repo.front(link[0])
+        yield i, "seed", [seed_of(f.path)]
+        yield i, "wall s", [f.data["wall_s"]]
+        yield i, "`[1, 0]`: speed, length", speed_end(f)
+        yield i, "`[0, 1]` control", [f.returns[f.control, 1]]
+        yield i, "non-dominated", [f.nd.sum(), len(f.prefs)]
+        if "selection" not in f.data:
+            yield i, "Spearman", [f.rho]
+        yield i, "HV (stated ref)", [f.hv(ref)]
+        yield i, "HV (−100, −100)", [f.hv((-100.0, -100.0))]
+        if "selection" in f.data:
+            g, sel = f.final(), f.data["selection"]
+            last = max(sel["candidate_iterations"])
+            yield i, "non-dominated: final → chosen", [g.nd.sum(), f.nd.sum()]
+            yield (
+                i,
+                "choices not the final policy",
+                [sum(c != last for c in sel["chosen_iteration"])],
+            )
+            yield i, "`[1, 0]` m/s / length", [*speed_end(g), *speed_end(f)]
+            yield i, "Spearman", [g.rho, f.rho]
+            yield i, "HV, stated ref", [g.hv(ref), f.hv(ref)]
+
+
+def transposed_wants(t: Table, repo: Repo) -> Iterator:
+    f = repo.front(t.header_links[0])
+    for j, head in enumerate(t.header[1:]):
+        yield -1, head, list(f.prefs[j])  # the header row itself
+        yield 0, head, list(f.returns[j])
+        yield 1, head, [f.lengths[j], f.speed(j)]
+    yield 0, 0, None
+    yield 1, 0, None
+
+
+def fixed_utopia_wants(t: Table, repo: Repo) -> Iterator:
+    f = repo.front(t.header_links[1])
+    for i in range(len(t.rows)):
+        yield i, "`p`", list(f.prefs[i])
+        yield i, t.header[1], [*f.returns[i], f.lengths[i]]
+        yield i, "`λ` at the end", None  # the training's last weights, not a return
+
+
+def curves_wants(t: Table, repo: Repo) -> Iterator:
+    for i, row in enumerate(t.rows):
+        preset = "paper" if row[0] == "paper" else "practical"
+        record = t.links[i][0]
+        f = repo.front(f"{os.path.dirname(record)}/{preset}/front.json")
+        yield i, "preset", None
+        for s in range(len(f.prefs)):
+            head = "seed 0: forward, speed, length" if s == 0 else f"seed {s}"
+            yield i, head, [f.returns[s, 0], f.speed(s), f.lengths[s]]
+        lo, hi = (np.mean(v) for v in zip(*[f.speed(s) for s in range(len(f.prefs))], strict=True))
+        yield i, "mean speed, length", [(lo, hi), f.lengths.mean()]
+        yield i, "wall s", [repo.json(record)["configs"][preset]["wall_s"]]
+
+
+def ablation_wants(t: Table, repo: Repo) -> Iterator:
+    record = t.header_links[2]
+    sizes = {(s["depth"], s["width"]): s for s in repo.json(record)["sizes"]}
+    for i, row in enumerate(t.rows):
+        depth, width = int(row[0]), int(row[1])
+        size = sizes[(depth, width)]
+        f = repo.front(f"{os.path.dirname(record)}/{size['name']}/front.json")
+        trained = np.array(size["train_forward_final"])  # the training's own last returns
+        yield i, "depth", [depth]
+        yield i, "width", [width]
+        yield i, t.header[2], [f.returns[:, 0].mean(), f.returns[:, 0].std(ddof=1)]
+        yield i, "eval episode length per seed", list(f.lengths)
+        yield i, "train forward return (last 5%)", [trained.mean(), trained.std(ddof=1)]
+        yield i, "eval speed m/s", [f.speed(s) for s in range(len(f.prefs))]
+        yield i, "env-steps/s", [size["env_steps_per_s"]]
+        yield i, "wall s", [size["wall_s"]]
+
+
+def paper_fronts_wants(t: Table, repo: Repo) -> Iterator:
+    for i, link in enumerate(t.links):
+        f = repo.front(link[0])
+        gone = len(outside(f.returns, (-100.0, -100.0)))
+        fwd, ctrl = f.forward, f.control
+        yield i, "front", None
+        yield i, "HV, stated ref", [f.hv(WALKER2D["walker2d"])]
+        yield i, "HV (−100, −100)", [f.hv((-100.0, -100.0)), gone]
+        yield i, "non-dominated", [f.nd.sum(), len(f.prefs)]
+        yield i, "Spearman", [f.rho]
+        yield i, "`[1, 0]`: forward, mean length", [f.returns[fwd, 0], f.lengths[fwd]]
+        yield (
+            i,
+            "`[0, 1]`: control per step, mean length",
+            [f.control_per_step(ctrl), f.lengths[ctrl]],
+        )
+        yield i, "wall s", [f.data["wall_s"]]
+
+
+CONDITIONED_ARMS = {
+    "one conditioned network, 3M": "conditioned",
+    "9 independent, 333k each (3M)": "independent_9x333k",
+    "9 independent, 1M each (9M)": "independent_9x1M",
+}
+
+
+def conditioned_fronts(repo: Repo, summary: str) -> dict[str, dict[int, Front]]:
+    base, s = os.path.dirname(summary), repo.json(summary)
+    dirs = {
+        "conditioned": f"{base}/conditioned",
+        "independent_9x333k": f"{base}/independent_9x333k",
+        "independent_9x1M": s["reused_9x1M"],
+    }
+    return {
+        arm: {seed_of(p): repo.front(p) for p in repo.glob(f"{d}/seed*/front.json")}
+        for arm, d in dirs.items()
+    }
+
+
+def conditioned_row(f: Front) -> list:
+    return [
+        PGMORL_WALKER2D.hv(f),
+        f.hv(WALKER2D["walker2d"]),
+        expected_utility(f.returns, front_json_weights(2)),
+        f.nd.sum(),
+        f.rho,
+        f.speed(f.forward),
+        f.returns[f.control, 1],
+        f.data["env_steps_total"],
+        f.data["wall_s"],
+    ]
+
+
+def conditioned_wants(t: Table, repo: Repo) -> Iterator:
+    summary = next(link for row in t.links for link in row if link)
+    fronts = conditioned_fronts(repo, summary)
+    heads = t.header[2:]
+    for i, row in enumerate(t.rows):
+        by_seed = fronts[CONDITIONED_ARMS[row[0]]]
+        if row[1] == "mean":
+            cells = [conditioned_row(f) for f in by_seed.values()]
+            want = [
+                tuple(np.mean([c[k][j] for c in cells]) for j in (0, 1))
+                if isinstance(cells[0][k], tuple)
+                else float(np.mean([c[k] for c in cells]))
+                for k in range(len(heads))
+            ]
+        else:
+            want = conditioned_row(by_seed[int(row[1])])
+        yield i, "front", None
+        yield i, "seed", [] if row[1] == "mean" else [int(row[1])]
+        for head, w in zip(heads, want, strict=True):
+            yield i, head, [w]
+
+
+def conditioned_cost_wants(t: Table, repo: Repo) -> Iterator:
+    """Seed 0's network trained once (its training alone: the run's wall less its own
+    evaluation) and evaluated at P preferences, against P independent 1M-step policies
+    at the 9 x 1M fronts' mean per preference."""
+    summary = t.links[0][0]
+    fronts = conditioned_fronts(repo, summary)
+    f = fronts["conditioned"][0]
+    train_s = f.data["wall_s"] - f.data["conditioned"]["eval_s"]
+    nine = list(fronts["independent_9x1M"].values())
+    steps_pp = np.mean([g.data["env_steps_total"] / len(g.prefs) for g in nine])
+    wall_pp = np.mean([g.data["wall_s"] / len(g.prefs) for g in nine])
+    growth = {c["eval_prefs"]: c for c in repo.json(summary)["cost_growth"]}
+    for i, row in enumerate(t.rows):
+        p = int(row[0])
+        c = growth[p]
+        yield i, "front points P", [p]
+        yield i, "conditioned: env steps", [f.data["env_steps_total"] + c["eval_env_steps"]]
+        yield i, "conditioned: s", [train_s + c["eval_s"]]
+        yield i, "P independent x 1M: env steps", [p * steps_pp]
+        yield i, "P independent x 1M: s (extrapolated)", [p * wall_pp]
+
+
+def conditioned_published_wants(t: Table, repo: Repo) -> Iterator:
+    walker = {
+        m.replace("Envelope SAC", "Envelope-SAC"): v for m, v in COLA_TABLE_1["Walker-2d"].items()
+    }
+    for i, row in enumerate(t.rows):
+        yield i, t.header[0], None
+        yield i, t.header[1], [walker[row[0]][0][0]]
+
+
+def suite_front(t: Table, i: int, repo: Repo) -> Front:
+    env = t.rows[i][0].strip("`")
+    return repo.front(f"{os.path.dirname(t.links[i][0])}/{env}/{t.rows[i][1]}/front.json")
+
+
+def mo_mujoco_wants(t: Table, repo: Repo) -> Iterator:
+    for i in range(len(t.rows)):
+        f = suite_front(t, i, repo)
+        ref = repo.json(f"{os.path.dirname(os.path.dirname(f.path))}/reference_ppo.json")
+        v, n = forward_row(f)["mean_x_velocity"], len(f.prefs)
+        yield i, "task", None
+        yield i, "direction", [f.data["config"]["train"]["scalarization"]]
+        yield i, "P x steps", [n, f.data["env_steps_per_pref"]]
+        yield i, "HV (morl-baselines)", [MORL_BASELINES.hv(f)]
+        yield i, "HV (PGMORL)", [PGMORL_V5_COLUMN.hv(f)]  # the column as it stands
+        yield i, "EU", [expected_utility(f.returns, front_json_weights(f.returns.shape[1]))]
+        yield i, "non-dom.", [f.nd.sum()]
+        yield i, "forward end m/s", [v]
+        yield i, "PPO m/s", [ref["mean_x_velocity"]]
+        yield i, "speed ratio", [v / ref["mean_x_velocity"]]
+        yield i, "wall s", [f.data["wall_s"]]
+        yield i, "PPO wall s", [ref["wall_s"]]
+        yield i, "wall ratio", [f.data["wall_s"] * 1.5 / (n * ref["wall_s"])]
+
+
+SUITE_MEASURES = {
+    "HV (morl-baselines)": MORL_BASELINES.hv,
+    "HV (PGMORL)": PGMORL_V5_COLUMN.hv,  # the column as it stands
+    "forward end m/s": lambda f: forward_row(f)["mean_x_velocity"],
+}
+
+
+def suite_seed_fronts(repo: Repo, t: Table, i: int) -> tuple[list[int], dict]:
+    task = f"{os.path.dirname(t.links[i][0])}/{t.rows[i][0].strip('`')}"
+    seeds = mo_mujoco_seeds(repo, task)
+    return seeds, {
+        d: [repo.front(f"{task}{'' if s == 0 else f'/seed{s}'}/{d}/front.json") for s in seeds]
+        for d in ("smooth_wc", "linear")
+    }
+
+
+def mo_mujoco_seeds_wants(t: Table, repo: Repo) -> Iterator:
+    for i, row in enumerate(t.rows):
+        seeds, fronts = suite_seed_fronts(repo, t, i)
+        values = {d: [SUITE_MEASURES[row[2]](f) for f in fronts[d]] for d in fronts}
+        a, b = values["smooth_wc"], values["linear"]
+        winner = (
+            "smooth_wc" if min(a) > max(b) else "linear" if min(b) > max(a) else "within spread"
+        )
+        yield i, "task", None
+        yield i, "seeds", seeds
+        yield i, "measure", [row[2]]
+        for d in fronts:
+            yield i, f"{d} mean [range]", [np.mean(values[d]), min(values[d]), max(values[d])]
+        yield i, "winner", [winner]
+
+
+def mo_mujoco_seed_prefs_wants(t: Table, repo: Repo) -> Iterator:
+    for i in range(len(t.rows)):
+        _, fronts = suite_seed_fronts(repo, t, i)
+        p = [v for v, _ in numbers(t.rows[i][1])]
+        j = fronts["smooth_wc"][0].row(p)
+        yield i, "task", None
+        yield i, "preference", list(fronts["smooth_wc"][0].prefs[j])
+        for d in fronts:
+            yield i, f"{d} mean return", list(np.mean([f.returns[j] for f in fronts[d]], axis=0))
+
+
+def mo_mujoco_published_wants(t: Table, repo: Repo) -> Iterator:
+    for i, row in enumerate(t.rows):
+        yield i, "published task", None
+        yield i, "ours", None
+        for method in t.header[2:]:
+            yield i, method, [COLA_TABLE_1[row[0]][method][0][0]]
+
+
+def fronts_wall_wants(t: Table, repo: Repo) -> Iterator:
+    for i, link in enumerate(t.links):
+        f = repo.front(link[1])
+        yield i, "front", None
+        yield i, "seed", [seed_of(f.path)]
+        yield i, "wall s", [f.data["wall_s"]]
+        yield i, "env-steps/s", [f.data["env_steps_per_s"]]
+
+
+def bench_cli_wants(t: Table, repo: Repo) -> Iterator:
+    for i, link in enumerate(t.links):
+        f = repo.front(link[0])
+        yield i, "run", None
+        yield i, "env-steps/s", [f.data["env_steps_per_s"]]
+        yield i, "compile s", [f.data["compile_s"]]
+        yield i, "wall s", [f.data["wall_s"]]
+        yield i, "HV", [f.hv(BRAX_WALKER2D["walker2d"])]
+
+
+def glance_wants(t: Table, repo: Repo) -> Iterator:
+    for i, row in enumerate(t.rows):
+        links = [link for link in t.links[i] if link]
+        if row[0] == "`walker2d`":
+            fronts = [repo.front(p) for p in dict.fromkeys(row_links(t, i))]
+            yield i, "`--env`", None
+            yield i, "default", [fronts[0].data["config"]["select_last"]]
+            yield (
+                i,
+                "what the front achieves",
+                [
+                    *(seed_of(f.path) for f in fronts),
+                    *(f.nd.sum() for f in fronts),
+                    len(fronts[0].prefs),
+                    *fronts[0].prefs[fronts[0].forward],
+                    *(f.speed(f.forward) for f in fronts),
+                    *(f.rho for f in fronts),
+                ],
+            )
+            yield i, "wall, 2-core CPU", [f.data["wall_s"] / 60 for f in fronts]
+        elif row[0] == "`walker2d --conditioned`":
+            by_seed = conditioned_fronts(repo, links[0])["conditioned"]
+            fronts = [by_seed[s] for s in sorted(by_seed)]
+            walker = COLA_TABLE_1["Walker-2d"]
+            yield i, "`--env`", None
+            yield i, "default", [len(fronts[0].prefs)]
+            yield (
+                i,
+                "what the front achieves",
+                [
+                    *sorted(by_seed),
+                    *(PGMORL_WALKER2D.hv(f) for f in fronts),
+                    walker["PGMORL"][0][0],
+                    walker["COLA"][0][0],
+                    *fronts[0].prefs[fronts[0].forward],
+                    *(f.speed(f.forward) for f in fronts),
+                    *(f.rho for f in fronts),
+                ],
+            )
+            yield i, "wall, 2-core CPU", [f.data["wall_s"] / 60 for f in fronts]
+        else:
+            # the problems with known answers: exploration.json and convergence.json
+            # record their own scores, not evaluated returns to recompute them from
+            for head in t.header:
+                yield i, head, None
+
+
+def row_links(t: Table, i: int) -> list[str]:
+    """Every front row `i` of `t` links to, in order (a cell may hold several links)."""
+    targets = [m.group(2) for m in LINK.finditer(t.raw_rows[i])]
+    paths = [os.path.normpath(os.path.join(os.path.dirname(t.doc), p)) for p in targets]
+    return [p for p in paths if os.path.basename(p).startswith("front") and p.endswith(".json")]
+
+
+# Every generated table: how its cells are recomputed, or why they are not (another
+# kind of result, whose numbers are not evaluated returns).
+DOC_TABLES: dict[str, Callable[[Table, Repo], Iterator] | str] = {
+    "glance": glance_wants,
+    "cli_default": cli_default_wants,
+    "cli_final_default": cli_final_wants,
+    "cli_film": film_wants,
+    "front_default": per_pref_wants,
+    "front_preset": per_pref_wants,
+    "front_w128": per_pref_wants,
+    "front_w64": per_pref_wants,
+    "front_default_summary": summary_wants,
+    "front_preset_summary": summary_wants,
+    "front_w128_summary": summary_wants,
+    "front_w128_fixed_summary": summary_wants,
+    "front_w64_summary": summary_wants,
+    "linear_seeds": rule_wants,
+    "selection_rule": rule_wants,
+    "variants_17": rule_wants,
+    "variants_3": rule_wants,
+    "variants_1": rule_wants,
+    "preset_seeds": seeds_wants,
+    "select5_seeds": seeds_wants,
+    "front_w128_seed1": transposed_wants,
+    "front_w128_fixed": fixed_utopia_wants,
+    "curves": curves_wants,
+    "ablation_practical": ablation_wants,
+    "ablation_practical_10x8": ablation_wants,
+    "ablation_paper_v5": ablation_wants,
+    "ablation_paper_v5_10pct": ablation_wants,
+    "ablation_paper_warm_1M": ablation_wants,
+    "ablation_paper_warm_10pct": ablation_wants,
+    "paper_fronts": paper_fronts_wants,
+    "conditioned": conditioned_wants,
+    "conditioned_cost": conditioned_cost_wants,
+    "conditioned_published": conditioned_published_wants,
+    "mo_mujoco": mo_mujoco_wants,
+    "mo_mujoco_seeds": mo_mujoco_seeds_wants,
+    "mo_mujoco_seed_prefs": mo_mujoco_seed_prefs_wants,
+    "mo_mujoco_published": mo_mujoco_published_wants,
+    "fronts_wall": fronts_wall_wants,
+    "bench_cli": bench_cli_wants,
+    "exploration_bandit": "exploration.json: scores of a problem with a known answer",
+    "exploration_dst": "exploration.json: scores of a problem with a known answer",
+    "convergence": "convergence.json: gaps to an exactly solved optimum",
+    "bench_practical": "throughput benchmarks: measured rates",
+    "reference_ppo": "PPO reference runs: measured rates and speeds",
+    "bench_env": "throughput benchmarks: measured rates",
+    "drift": "engine comparisons: measured state differences",
+    "bench_engines": "throughput benchmarks: measured rates",
+    "quiet_raw": "throughput benchmarks: measured rates",
+    "bench_throughput": "throughput benchmarks: measured rates",
+    "bench_processes": "throughput benchmarks: measured rates",
+    "kuairand_ncis": "the recommendation experiment: check_kuairand",
+    "kuairand_truth": "the recommendation experiment: check_kuairand",
+    "kuairand_unified": "the recommendation experiment: check_kuairand",
+    "kuairand_sets": "the recommendation experiment: check_kuairand",
+    "kuairand_paper_scale_unified": "the recommendation table at full size (no per-seed values)",
+    "kuairand_headroom": "the recommendation experiment's evaluation widths",
+    "kuairand_fig2": "the recommendation experiment's leaning preferences",
+    "kuairand_run": "the recommendation experiment's sizes and seconds",
+}
+
+
+def v_default_wall_range(repo: Repo, text: str, links: list) -> Findings:
+    fronts = [
+        repo.front(p)
+        for p in repo.glob(f"{os.path.dirname(os.path.dirname(links[0]))}/seed*/front.json")
+    ]
+    walls = [f.data["wall_s"] / 60 for f in fronts]
+    return compare("default_wall_range", text, [min(walls), max(walls)])
+
+
+def v_selection_ge7(repo: Repo, text: str, links: list) -> Findings:
+    fronts = [repo.front(p) for p in repo.glob(f"{links[0]}/seed*/smooth_wc/front.json")]
+    return compare("selection_ge7", text, [sum(f.nd.sum() >= 7 for f in fronts), len(fronts)])
+
+
+SPEED_FLOOR = 0.8  # the suite's criterion: a forward end at 0.8 x PPO's speed or more
+
+
+def ppo_reference(repo: Repo, task: str, steps: int, seed: int) -> dict:
+    """The PPO run of `task` at `steps` env steps on `seed`, among the suite's and the
+    task's own probes."""
+    paths = repo.glob(f"{RESULTS}/mo_mujoco/{task}/reference_ppo.json")
+    paths += repo.glob(f"{RESULTS}/reference_ppo_{task}_v5/*/reference_ppo.json")
+    found = [
+        repo.json(p)
+        for p in paths
+        if (repo.json(p)["env_steps"], repo.json(p)["seed"]) == (steps, seed)
+    ]
+    assert len(found) == 1, (task, steps, seed, paths)
+    return found[0]
+
+
+def v_forward_end(repo: Repo, text: str, links: list) -> Findings:
+    f = repo.front(links[0])
+    task = f.env
+    config = f.data["config"]
+    ppo = ppo_reference(repo, task, config["steps_per_pref"], config["seed"])["mean_x_velocity"]
+    assert all(p.tolist() == [1.0, 0.0] for p in f.prefs)
+    speeds = [f.mean_x_velocity(i) for i in range(len(f.prefs))]
+    fast = sum(v >= SPEED_FLOOR * ppo for v in speeds)
+    return compare(
+        f"forward-end probe {links[0]}",
+        text,
+        [min(speeds), max(speeds), fast, len(speeds), SPEED_FLOOR],
+    )
+
+
+def v_ppo(repo: Repo, text: str, links: list) -> Findings:
+    """A PPO reference's speed (and episode length, where the text gives one)."""
+    want = []
+    for p in links:
+        d = repo.json(p)
+        want.append(d["mean_x_velocity"])
+        if "episodes of" in text:
+            want.append(d["episode_length"])
+    if "at seeds" in text:
+        want += [repo.json(p)["seed"] for p in links]
+    return compare(f"PPO reference {links}", text, want)
+
+
+def v_thresholds(repo: Repo, text: str, links: list) -> Findings:
+    """The suite's claim over every front of its table: each wall ratio below 1 and each
+    forward end at 0.8 x PPO's speed or more, or the exceptions named."""
+    out, base = Findings(), os.path.dirname(links[0]) if links else f"{RESULTS}/mo_mujoco"
+    tasks = sorted({p.split("/")[-3] for p in repo.glob(f"{base}/*/smooth_wc/front.json")})
+    for task in tasks:
+        if f"`{task}`" not in text:
+            out.append(f"mo_mujoco_thresholds: {task} not named")
+        ref = repo.json(f"{base}/{task}/reference_ppo.json")
+        for d in ("smooth_wc", "linear"):
+            f = repo.front(f"{base}/{task}/{d}/front.json")
+            wall = f.data["wall_s"] * 1.5 / (len(f.prefs) * ref["wall_s"])
+            speed = forward_row(f)["mean_x_velocity"] / ref["mean_x_velocity"]
+            named = f"`{task}`'s `{d}`" in text
+            if (wall >= 1.0 or speed < SPEED_FLOOR) != named:
+                out.append(
+                    f"mo_mujoco_thresholds: {task} {d} wall ratio {wall:.3f}, speed ratio "
+                    f"{speed:.3f}: named {named}"
+                )
+    return out
+
+
+DOC_VALUES: dict[str, Callable[[Repo, str, list], Findings] | str] = {
+    "default_wall_range": v_default_wall_range,
+    "selection_ge7": v_selection_ge7,
+    "mo_mujoco_thresholds": v_thresholds,
+    "halfcheetah_forward_end_ls0": v_forward_end,
+    "halfcheetah_forward_end_ls-1": v_forward_end,
+    "humanoid_forward_end_ls0": v_forward_end,
+    "humanoid_forward_end_ls-1": v_forward_end,
+    "humanoid_forward_end_e10x8": v_forward_end,
+    "halfcheetah_ppo_speed": v_ppo,
+    "humanoid_ppo_speed": v_ppo,
+    "humanoid_ppo_3M": v_ppo,
+    "humanoid_ppo_seeds": v_ppo,
+    "kuairand_alg1_gap": "the recommendation experiment: check_kuairand",
+    "kuairand_alg1_gap_sets": "the recommendation experiment: check_kuairand",
+    "kuairand_training": "the recommendation experiment's configuration",
+    "kuairand_no_bc_ddpg_gaps": "the recommendation ablation (no per-seed values)",
+    "kuairand_no_bc_alg1_gap": "the recommendation ablation (no per-seed values)",
+    "kuairand_no_bc_ddpg_action": "the recommendation ablation's training curves",
+    "kuairand_no_bc_alg1_action": "the recommendation ablation's training curves",
+    "kuairand_action_levels": "the recommendation experiment's training curves",
+    "kuairand_loss_levels": "the recommendation experiment's training curves",
+    "kuairand_wall": "the recommendation experiment's seconds",
+    "kuairand_ncis_judged": "the test rows' logged event counts (table.json's ncis_events)",
+    "kuairand_ncis_few": "the test rows' logged event counts (table.json's ncis_events)",
+}
+
+
+def check_docs(repo: Repo) -> Findings:
+    """Every generated number of the documents that comes from evaluated returns, against
+    its recomputation; every generated block is known here."""
+    out = Findings()
+    tables, values = doc_blocks(repo)
+    for (doc, name), t in tables.items():
+        spec = DOC_TABLES.get(name)
+        if spec is None:
+            out.append(f"{doc} table {name}: not audited (add it to DOC_TABLES)")
+        elif not isinstance(spec, str):
+            try:
+                out.extend(check_table(t, spec(t, repo)))
+            except (KeyError, ValueError, IndexError, AssertionError, FileNotFoundError) as e:
+                out.append(f"{doc} table {name}: cannot be recomputed ({type(e).__name__}: {e})")
+    for (doc, name), (text, links) in values.items():
+        spec = DOC_VALUES.get(name)
+        if spec is None:
+            out.append(f"{doc} value {name}: not audited (add it to DOC_VALUES)")
+        elif not isinstance(spec, str):
+            try:
+                out.extend(f"{doc}: {line}" for line in spec(repo, text, links))
+            except (KeyError, ValueError, IndexError, AssertionError, FileNotFoundError) as e:
+                out.append(f"{doc} value {name}: cannot be recomputed ({type(e).__name__}: {e})")
+    return out
+
+
+# ---------------------------------------------------------------------- recommendation
+
+
+def kuairand_points(values: dict, method: str, key: str) -> np.ndarray:
+    """The point estimate of `key` for `method`: each data set's mean over its training
+    seeds, then the mean over the data sets. `[k]` (or a scalar)."""
+    return np.mean(
+        [np.mean(np.asarray(ds[method][key], np.float64), axis=0) for ds in values["data_sets"]],
+        axis=0,
+    )
+
+
+def kuairand_set_interval(values: dict, method: str, replicates: int) -> tuple[float, float]:
+    """The share of the Behavior-Clone -> oracle gap with the data sets resampled too: per
+    replicate, the data sets drawn with replacement and within each drawn set the training
+    seeds (shared by every method; the oracle's one policy whatever the draw), numpy's
+    `default_rng([seed, 1])` drawing the sets `[B, D]` and then the seeds `[B, D, S]`;
+    the 2.5 and 97.5 percentiles."""
+    sets = values["data_sets"]
+    rng = np.random.default_rng([values["seed"], 1])
+    drawn = rng.integers(0, len(sets), (replicates, len(sets)))
+    seeds = rng.integers(0, len(values["seeds"]), (replicates, len(sets), len(values["seeds"])))
+
+    def replicate(name: str) -> np.ndarray:
+        u = np.array([ds[name]["unified_truth"] for ds in sets], np.float64)  # [D, S]
+        return u[drawn[:, :, None], seeds % u.shape[1]].mean(axis=(1, 2))
+
+    bc, oracle = replicate("Behavior-Clone"), replicate("Oracle")
+    share = (replicate(method) - bc) / (oracle - bc)
+    lo, hi = np.percentile(share, [2.5, 97.5])
+    return float(lo), float(hi)
+
+
+def check_kuairand(repo: Repo, base: str = f"{RESULTS}/kuairand") -> Findings:
+    """The recommendation table's point estimates and gap shares from the committed values
+    of each data set and training seed (`per_seed.json`), and the documents' numbers."""
+    out = Findings()
+    table, rel = repo.json(f"{base}/table.json"), f"{base}/per_seed.json"
+    if not repo.exists(rel):
+        out.append(f"{base}: no per_seed.json to recompute table.json from")
+        return out
+    values = repo.json(rel)
+    out.equal(f"{rel} data sets", [ds["name"] for ds in values["data_sets"]], table["data_seeds"])
+    out.equal(f"{rel} seeds", values["seeds"], table["seeds"])
+    signals = list(table["methods"]["Behavior-Clone"]["ncis"])
+    bc = "Behavior-Clone"
+    u = {m: float(kuairand_points(values, m, "unified_truth")) for m in table["methods"]}
+    for m, row in table["methods"].items():
+        w = f"{base}/table.json {m}"
+        for kind in ("ncis", "truth"):
+            point = kuairand_points(values, m, kind)
+            ref = kuairand_points(values, bc, kind)
+            for j, s in enumerate(signals):
+                out.close(f"{w} {kind} {s}", row[kind][s], point[j])
+                rel_key = "vs_bc" if kind == "ncis" else "truth_vs_bc"
+                want = None if ref[j] == 0 else 100 * (point[j] - ref[j]) / abs(ref[j])
+                out.close(f"{w} {rel_key} {s}", row[rel_key][s], want)
+        out.close(f"{w} unified_truth", row["unified_truth"], u[m])
+        out.close(f"{w} unified_vs_bc", row["unified_vs_bc"], u[m] - u[bc])
+        out.close(f"{w} gap_share", row["gap_share"], (u[m] - u[bc]) / (u["Oracle"] - u[bc]))
+        per_set = kuairand_set_shares(values, m)
+        for d, (a, b) in enumerate(zip(row["gap_share_by_data_set"], per_set, strict=True)):
+            out.close(f"{w} gap share on data set {d}", a, b)
+        lo, hi = kuairand_set_interval(values, m, table["bootstrap"]["replicates"])
+        out.close(
+            f"{w} gap share interval over data sets (low)", row["gap_share_ci95_data_sets"][0], lo
+        )
+        out.close(
+            f"{w} gap share interval over data sets (high)", row["gap_share_ci95_data_sets"][1], hi
+        )
+    out.extend(check_kuairand_docs(repo, base, table, values))
+    return out
+
+
+def kuairand_share(values: dict, method: str) -> float:
+    """The pooled share of the Behavior-Clone -> oracle gap: of the point estimates."""
+    u = {
+        m: float(kuairand_points(values, m, "unified_truth"))
+        for m in (method, "Behavior-Clone", "Oracle")
+    }
+    return (u[method] - u["Behavior-Clone"]) / (u["Oracle"] - u["Behavior-Clone"])
+
+
+def kuairand_set_shares(values: dict, method: str) -> list[float]:
+    """The share of the gap on each data set, from its seeds' mean values."""
+    out = []
+    for ds in values["data_sets"]:
+        u = {m: np.mean(ds[m]["unified_truth"]) for m in (method, "Behavior-Clone", "Oracle")}
+        out.append(float((u[method] - u["Behavior-Clone"]) / (u["Oracle"] - u["Behavior-Clone"])))
+    return out
+
+
+def check_kuairand_docs(repo: Repo, base: str, table: dict, values: dict) -> Findings:
+    """The documents' point estimates and gap shares of the recommendation table (their
+    intervals over test rows are the table's, which per-seed values cannot redo)."""
+    out = Findings()
+    tables, doc_values = doc_blocks(repo)
+    signals = list(table["methods"]["Behavior-Clone"]["ncis"])
+    for (doc, name), t in tables.items():
+        if name in ("kuairand_ncis", "kuairand_truth") and t.header_links[0].startswith(base + "/"):
+            kind = "ncis" if name == "kuairand_ncis" else "truth"
+            ref = kuairand_points(values, "Behavior-Clone", kind)
+            for row in t.rows:
+                if row[0] not in table["methods"]:
+                    continue  # the logged policy's row: the test rows' logged means
+                point = kuairand_points(values, row[0], kind)
+                for j, s in enumerate(signals):
+                    text = row[1 + j]
+                    shown = re.search(r"\(e-(\d+)\)", t.header[1 + j])  # printed x 10^k
+                    scale = 10.0 ** int(shown.group(1)) if shown else 1.0
+                    want = [point[j] * scale]
+                    if "few events" in text:
+                        want.append(table["ncis_events"][s])
+                    elif "%" in text:
+                        want.append(100 * (point[j] - ref[j]) / abs(ref[j]))
+                    out.extend(compare(f"{doc} table {name} {row[0]} {s}", text, want))
+        if name == "kuairand_sets" and t.header_links[0].startswith(base + "/"):
+            for row in t.rows:
+                m = row[0]
+                if m not in table["methods"]:  # the gap itself, per data set
+                    for d, ds in enumerate(values["data_sets"]):
+                        gap = np.mean(ds["Oracle"]["unified_truth"]) - np.mean(
+                            ds["Behavior-Clone"]["unified_truth"]
+                        )
+                        out.extend(
+                            compare(f"{doc} table {name} gap on data set {d}", row[1 + d], [gap])
+                        )
+                    continue
+                per_set = kuairand_set_shares(values, m)
+                for d, share in enumerate(per_set):
+                    out.extend(compare(f"{doc} table {name} {m} data set {d}", row[1 + d], [share]))
+                pooled = row[1 + len(per_set)].split("[")[0]
+                out.extend(
+                    compare(f"{doc} table {name} {m} pooled", pooled, [kuairand_share(values, m)])
+                )
+                lo, hi = kuairand_set_interval(values, m, table["bootstrap"]["replicates"])
+                out.extend(compare(f"{doc} table {name} {m} sets resampled", row[-1], [lo, hi]))
+        if name == "kuairand_unified" and t.header_links[0].startswith(base + "/"):
+            u = {m: float(kuairand_points(values, m, "unified_truth")) for m in table["methods"]}
+            bc, oracle = u["Behavior-Clone"], u["Oracle"]
+            for row in t.rows:
+                m = row[0]
+                out.extend(compare(f"{doc} table {name} {m} value", row[1], [u[m]]))
+                out.extend(
+                    compare(f"{doc} table {name} {m} vs BC", row[2].split("[")[0], [u[m] - bc])
+                )
+                share = (u[m] - bc) / (oracle - bc)
+                out.extend(
+                    compare(f"{doc} table {name} {m} gap share", row[3].split("[")[0], [share])
+                )
+    alg1 = "wcac (Algorithm 1)"
+    for (doc, name), (text, links) in doc_values.items():
+        if not links or not links[0].startswith(base + "/"):
+            continue
+        if name == "kuairand_alg1_gap":  # its interval is over the test rows: the table's
+            out.extend(
+                compare(
+                    f"{doc} value {name}", text.split("[")[0], [100 * kuairand_share(values, alg1)]
+                )
+            )
+        if name == "kuairand_alg1_gap_sets":
+            per_set = [100 * v for v in kuairand_set_shares(values, alg1)]
+            lo, hi = kuairand_set_interval(values, alg1, table["bootstrap"]["replicates"])
+            out.extend(
+                compare(f"{doc} value {name}", text, [*per_set, len(per_set), 100 * lo, 100 * hi])
+            )
+    return out
+
+
+# ---------------------------------------------------------------------- the audit
+
+
+def audit(root: str) -> list[str]:
+    """Every stated number of the results under `root` that its data do not give."""
+    repo = Repo(root)
+    return [*check_families(repo), *check_docs(repo), *check_kuairand(repo)]

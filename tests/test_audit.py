@@ -1,0 +1,306 @@
+"""The audit (`tests/audit.py`): every committed number that README.md, docs/ and the
+results' summaries state is what the raw returns and lengths give; the auditor's own
+definitions by hand; and planted errors in a copy of the results, each of which the
+audit must catch."""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import shutil
+
+import audit
+import numpy as np
+import pytest
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+# ---------------------------------------------------------------------- the repository
+
+
+def test_every_committed_number_is_what_its_data_give():
+    findings = audit.audit(ROOT)
+    assert findings == [], "\n".join(findings[:40])
+
+
+def test_the_audit_walks_every_front_and_reads_every_generated_block():
+    repo = audit.Repo(ROOT)
+    fronts = repo.fronts()
+    # the walk finds fronts by their content, whatever the file's name
+    assert f"{audit.RESULTS}/bench_cli_paper_mujoco_v5_100k/front_loaded.json" in fronts
+    named = {p for p in fronts if os.path.basename(p) == "front.json"}
+    assert named == set(repo.glob(f"{audit.RESULTS}/**/front.json"))
+    tables, values = audit.doc_blocks(repo)
+    assert {name for _, name in tables} <= set(audit.DOC_TABLES)
+    assert {name for _, name in values} <= set(audit.DOC_VALUES)
+    # the headline blocks are recomputed, not waved through
+    for name in ("glance", "conditioned", "mo_mujoco", "mo_mujoco_seeds", "cli_default"):
+        assert callable(audit.DOC_TABLES[name]), name
+
+
+# ---------------------------------------------------------------------- by hand
+
+
+def test_hypervolume_and_dominance_by_hand():
+    # a staircase from (0, 0): 3 x 1 + 2 x (2 - 1) + 1 x (3 - 2)
+    pts = [[3.0, 1.0], [2.0, 2.0], [1.0, 3.0], [1.0, 1.0], [2.0, 2.0]]
+    assert audit.hypervolume(pts, [0.0, 0.0]) == pytest.approx(6.0)
+    # (1, 1) is dominated; the second (2, 2) repeats the first
+    assert audit.nondominated(pts).tolist() == [True, True, True, False, False]
+    # points not strictly above the reference add nothing
+    assert audit.hypervolume([[3.0, 0.0], [-1.0, 5.0]], [0.0, 0.0]) == 0.0
+    assert audit.outside([[3.0, 0.0], [1.0, 1.0]], [0.0, 0.0]) == [0]
+    # three objectives: two unit boxes overlapping in a 1 x 1 x 1 cube of 2 x 2 x 1
+    assert audit.hypervolume([[2, 1, 1], [1, 2, 1]], [0, 0, 0]) == pytest.approx(3.0)
+
+
+def test_expected_utility_and_weight_grids_by_hand():
+    assert len(audit.weight_grid(2, 0.01)) == 101 and len(audit.weight_grid(3, 0.1)) == 66
+    np.testing.assert_allclose(audit.weight_grid(3, 0.1).sum(axis=1), 1.0)
+    # weights (1, 0), (0.5, 0.5), (0, 1) over points (2, 0), (0, 2): max 2, 1, 2
+    assert audit.expected_utility([[2, 0], [0, 2]], audit.weight_grid(2, 0.5)) == pytest.approx(
+        5 / 3
+    )
+    w = audit.front_json_weights(3)
+    assert w.shape == (101, 3) and {tuple(r) for r in np.eye(3)} <= {tuple(r) for r in w}
+    assert len({tuple(r) for r in w}) == 101  # 105 lattice points (step 1/13), 4 dropped
+
+
+def test_sparsity_and_rank_correlation_by_hand():
+    # non-dominated (0, 3), (1, 1), (3, 0): gaps per objective 1, 2 and 1, 2: 10 / 2
+    assert audit.sparsity([[0, 3], [1, 1], [3, 0], [0, 0]]) == pytest.approx(5.0)
+    assert audit.spearman([1, 2, 3], [3, 2, 1]) == pytest.approx(-1.0)
+
+
+def test_speed_from_a_walker_return_by_hand():
+    # 500 steps, never below the limit: 0 falls, or one on the last step of each episode
+    lo, hi = audit.walker_speed(2000.0, 500.0)
+    assert (lo, hi) == pytest.approx(((2000 - 500) / 500, (2000 - 500 + 1) / 500))
+    # mean 250 over 8 episodes: at most 3 lasted 500 (4 x 500 + 4 x 1 > 2000)
+    assert audit.falls(250.0) == (5 / 8, 1.0)
+    # every episode fell: 8 x 20 < 500
+    assert audit.falls(20.0) == (1.0, 1.0)
+    lo, hi = audit.walker_control(-100.0, 20.0)
+    assert lo == hi == pytest.approx((20 - 1 + 100) / 20)
+
+
+def test_printed_numbers_are_read_with_their_precision():
+    got = audit.numbers("8,687,214 → 8,811,925 | −1,807 | 4.65e6 | 0.98 | `hopper-2obj` 3M p₀")
+    assert [v for v, _ in got] == [8687214, 8811925, -1807, 4.65e6, 0.98]
+    assert [t for _, t in got] == pytest.approx([0.5, 0.5, 0.5, 0.005e6, 0.005], rel=1e-5)
+    assert audit.compare("x", "3.40 m/s", [(3.395, 3.41)]) == []
+    assert audit.compare("x", "3.40 m/s", [3.3949]) != []
+    assert audit.compare("x", "7 of 9", [7, 9]) == [] and audit.compare("x", "7", [7, 9]) != []
+
+
+def test_conventions_by_hand():
+    """morl-baselines' convention on the discounted returns from -100; PGMORL's from the
+    origin; the PGMORL scale adds 4 per step to Walker2d's control."""
+    rows = [
+        {"pref": [1.0, 0.0], "return": [300.0, -50.0], "discounted_return": [50.0, -20.0]},
+        {"pref": [0.0, 1.0], "return": [100.0, 90.0], "discounted_return": [10.0, 30.0]},
+    ]
+    for r in rows:
+        r["episode_length"] = 100.0
+    f = audit.Front("x", {"env": "walker2d", "prefs": rows})
+    # from (-100, -100): (150, 80) and (110, 130): 150 x 80 + 110 x 50
+    assert audit.MORL_BASELINES.hv(f) == pytest.approx(150 * 80 + 110 * 50)
+    # from the origin only (100, 90) counts
+    assert audit.PGMORL.hv(f) == pytest.approx(100 * 90)
+    # (300, 350) and (100, 490): 300 x 350 + 100 x 140
+    assert audit.PGMORL_WALKER2D.hv(f) == pytest.approx(300 * 350 + 100 * 140)
+    # C-MORL's EU: weights (w, 1 - w) in steps of 0.01 over the discounted returns
+    w = np.linspace(0, 1, 101)
+    want = np.mean(np.maximum(50 * w - 20 * (1 - w), 10 * w + 30 * (1 - w)))
+    assert audit.C_MORL.eu(f) == pytest.approx(want)
+
+
+# ---------------------------------------------------------------------- planted errors
+
+
+def _copy(tmp_path) -> str:
+    """The documents and the results' JSON files, copied."""
+    root = str(tmp_path / "repo")
+    shutil.copytree(
+        os.path.join(ROOT, audit.RESULTS),
+        os.path.join(root, audit.RESULTS),
+        ignore=shutil.ignore_patterns("*.png", "*.csv", "*.npz", "*.pkl", "*.md"),
+    )
+    os.makedirs(os.path.join(root, "docs"))
+    for doc in audit.DOCS:
+        shutil.copy(os.path.join(ROOT, doc), os.path.join(root, doc))
+    return root
+
+
+def _edit_json(root: str, rel: str, change) -> None:
+    path = os.path.join(root, rel)
+    with open(path) as f:
+        data = json.load(f)
+    change(data)
+    with open(path, "w") as f:
+        json.dump(data, f)
+
+
+def _edit_text(root: str, rel: str, old: str, new: str) -> None:
+    path = os.path.join(root, rel)
+    with open(path) as f:
+        text = f.read()
+    assert old in text, old
+    with open(path, "w") as f:
+        f.write(text.replace(old, new, 1))
+
+
+def _fails(root: str, *patterns: str) -> list[str]:
+    """The audit of `root` fails, with a line matching each pattern."""
+    findings = audit.audit(root)
+    assert findings, "the planted error passed the audit"
+    for pattern in patterns:
+        assert any(re.search(pattern, line) for line in findings), (pattern, findings[:10])
+    return findings
+
+
+R = audit.RESULTS
+COND = f"{R}/conditioned_walker2d/conditioned/seed0/front.json"
+CLI = f"{R}/cli_default_front_select5/seed0/front.json"
+
+
+def test_plant_a_return_changed(tmp_path):
+    """One return of the first command's seed 0 (preference [0.625, 0.375], non-dominated)
+    1% higher: its hypervolume and sparsity, the docs' table and the conditioned summary's
+    9 x 1M arm no longer follow."""
+    root = _copy(tmp_path)
+
+    def change(d):
+        d["prefs"][3]["return"][0] *= 1.01
+
+    _edit_json(root, CLI, change)
+    _fails(
+        root,
+        rf"{CLI} hypervolume: states",
+        rf"{CLI} sparsity",
+        r"docs/results.md table cli_default row 0 'HV, stated ref'",
+        r"conditioned_walker2d/summary.json independent_9x1M seed 0 hv_pgmorl",
+    )
+
+
+def test_plant_a_length_changed(tmp_path):
+    """The conditioned network's `[1, 0]` mean length 500 -> 490 (seed 0): its speed, its
+    PGMORL-scale hypervolume and its evaluation's env steps no longer follow."""
+    root = _copy(tmp_path)
+    _edit_json(root, COND, lambda d: d["prefs"][0].update(episode_length=490.0))
+    _fails(
+        root,
+        r"conditioned seed 0 forward_end_length",
+        r"conditioned seed 0 hv_pgmorl",
+        rf"{COND} eval_env_steps",
+        r"README.md table glance row 1 'what the front achieves'",
+    )
+
+
+def test_plant_a_reference_point_changed(tmp_path):
+    """A front that states its hypervolume at another reference, consistently computed;
+    and the suite's morl-baselines column computed at -50 instead of -100."""
+    root = _copy(tmp_path)
+    moved = (-400.0, -3000.0)
+
+    def front(d):
+        d["hv_ref"] = list(moved)
+        d["hypervolume"] = audit.hypervolume([r["return"] for r in d["prefs"]], moved)
+        d["hypervolume_discounted"] = audit.hypervolume(
+            [r["discounted_return"] for r in d["prefs"]], moved
+        )
+
+    _edit_json(root, CLI, front)
+    suite = f"{R}/mo_mujoco/table.json"
+    halfcheetah = audit.Front(
+        "x", audit.Repo(ROOT).json(f"{R}/mo_mujoco/halfcheetah/smooth_wc/front.json")
+    )
+    at_50 = audit.hypervolume(halfcheetah.discounted, [-50.0, -50.0])
+
+    def table(d):
+        row = next(
+            r for r in d["rows"] if (r["env"], r["scalarization"]) == ("halfcheetah", "smooth_wc")
+        )
+        row["hv_morl_baselines"] = at_50
+
+    _edit_json(root, suite, table)
+    _fails(root, rf"{CLI} hv_ref", r"table.json halfcheetah smooth_wc hv_morl_baselines")
+
+
+def test_plant_a_published_number_changed(tmp_path):
+    """PGMORL's Walker2d hypervolume at 3M as the suite's file cites it, and as the README
+    prints it."""
+    root = _copy(tmp_path)
+
+    def change(entries):
+        for p in entries:
+            if (p["task"], p["method"], p["metric"]) == ("Walker-2d", "PGMORL", "HV"):
+                p["value"] = 4.6e6
+
+    _edit_json(root, f"{R}/mo_mujoco/published.json", change)
+    _fails(root, r"published.json \('Walker-2d', 'PGMORL', 'HV'\) value")
+    root = _copy(tmp_path / "again")
+    _edit_text(
+        root, "README.md", "(published at 3M: PGMORL [4.50e6]", "(published at 3M: PGMORL [4.60e6]"
+    )
+    _fails(root, r"README.md table glance row 1 'what the front achieves'")
+
+
+def test_plant_a_fronts_preference_order_swapped(tmp_path):
+    """Two preferences of the conditioned network's seed-0 front swapped (their returns
+    stay): the order's rank correlation moves, in the summary and in the README."""
+    root = _copy(tmp_path)
+
+    def change(d):
+        rows = d["prefs"]
+        rows[3]["pref"], rows[20]["pref"] = rows[20]["pref"], rows[3]["pref"]
+
+    _edit_json(root, COND, change)
+    _fails(
+        root,
+        r"conditioned seed 0 spearman",
+        r"README.md table glance row 1 'what the front achieves'",
+    )
+
+
+def test_plant_a_front_nobody_audits(tmp_path):
+    root = _copy(tmp_path)
+    os.makedirs(os.path.join(root, R, "new_experiment"))
+    shutil.copy(os.path.join(ROOT, CLI), os.path.join(root, R, "new_experiment", "front.json"))
+    _fails(root, r"new_experiment/front.json: no family audits it")
+
+
+def test_plant_a_recommendation_value_changed(tmp_path):
+    """One training seed's true unified value of Algorithm 1 on data set 1: the table's
+    point estimate, its gap share and the interval over data sets no longer follow."""
+    root = _copy(tmp_path)
+
+    def change(d):
+        d["data_sets"][1]["wcac (Algorithm 1)"]["unified_truth"][2] += 0.05
+
+    _edit_json(root, f"{R}/kuairand/per_seed.json", change)
+    _fails(
+        root,
+        r"wcac \(Algorithm 1\) unified_truth",
+        r"wcac \(Algorithm 1\) gap_share:",
+        r"wcac \(Algorithm 1\) gap share interval over data sets",
+    )
+
+
+def test_plant_a_summary_number_changed(tmp_path):
+    """The one summary without per-direction entries (the conditioned one) is audited, not
+    skipped: its seed-0 PGMORL-scale hypervolume 0.1% higher fails; so does a
+    walker2d_front.py summary emptied of its directions."""
+    root = _copy(tmp_path)
+
+    def change(d):
+        d["runs"]["conditioned"]["0"]["hv_pgmorl"] *= 1.001
+
+    _edit_json(root, f"{R}/conditioned_walker2d/summary.json", change)
+    _fails(root, r"summary.json conditioned seed 0 hv_pgmorl")
+    root = _copy(tmp_path / "again")
+    summary = f"{R}/walker2d_front_practical_v5_e5x16/seed3/summary.json"
+    _edit_json(root, summary, lambda d: d.update(directions={}))
+    _fails(root, rf"{summary}: states no direction")
