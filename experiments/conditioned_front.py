@@ -63,23 +63,6 @@ def pgmorl_points(front: dict) -> np.ndarray:
     return np.stack([ret[:, 0], ret[:, 1] + HEALTHY_PER_STEP * length], axis=1)
 
 
-def spearman(x, y) -> float:
-    """Spearman's rank correlation (ties take their mean rank)."""
-
-    def ranks(v):
-        v = np.asarray(v, np.float64)
-        order = np.argsort(v, kind="stable")
-        r = np.empty(len(v))
-        r[order] = np.arange(len(v))
-        for value in np.unique(v):
-            tied = v == value
-            r[tied] = r[tied].mean()
-        return r
-
-    rx, ry = ranks(x), ranks(y)
-    return float(np.corrcoef(rx, ry)[0, 1])
-
-
 def front_metrics(front: dict) -> dict:
     """What the tables report of one front."""
     from wcac_jax import pareto
@@ -97,7 +80,7 @@ def front_metrics(front: dict) -> dict:
         "hv_project": front["hypervolume"],
         "expected_utility": front["expected_utility"],
         "nondominated": int(sum(r["nondominated"] for r in rows)),
-        "spearman_p0_forward": spearman(prefs[:, 0], ret[:, 0]),
+        "spearman_p0_forward": pareto.rank_correlation(prefs[:, 0], ret[:, 0]),
         # R0 = sum(v_x + healthy): the mean speed over an episode of healthy steps
         "forward_end_speed": float(ret[fwd, 0] / max(length[fwd], 1.0) - 1.0),
         "forward_end_length": float(length[fwd]),

@@ -304,25 +304,6 @@ def hypervolume_table(points, refs) -> list[dict]:
     ]
 
 
-def rank_correlation(x, y) -> float:
-    """Spearman's rank correlation of two 1-D sequences (average ranks for ties)."""
-
-    def ranks(v):
-        v = np.asarray(v, dtype=float)
-        order = np.argsort(v, kind="stable")
-        r = np.empty(len(v))
-        r[order] = np.arange(len(v), dtype=float)
-        for value in np.unique(v):
-            tied = v == value
-            r[tied] = r[tied].mean()
-        return r
-
-    rx, ry = ranks(x), ranks(y)
-    if rx.std() == 0 or ry.std() == 0:
-        return float("nan")
-    return float(np.corrcoef(rx, ry)[0, 1])
-
-
 def machine() -> dict:
     """Where the results were computed."""
     import os
