@@ -38,8 +38,9 @@ from wcac_jax import networks, scalarize
 from wcac_jax.types import EpisodeStats, Transition, typed_key
 
 # scalarizations selectable by a traced index (the `direction` argument of `step`/`run`):
-# every registered one, in registration order (`scalarize.register`)
-TRACED_DIRECTIONS = tuple(scalarize.SCALARIZATIONS)
+# every registered one, in registration order (`scalarize.register`), read when a program
+# is built, so that one registered after import is selectable too
+TRACED_DIRECTIONS = scalarize.NAMES
 
 
 class UpdateState(Protocol):

@@ -86,11 +86,15 @@ def make_train(config, env) -> Callable:
 
     `key` (a PRNG key) and `pref` (`[m]`) are traced, so a sweep is
     `jax.jit(jax.vmap(train))(keys [P], prefs [P, m])`; `metrics` leaves are `[T, ...]`
-    (`[P, T, ...]` under the vmap). The optional `direction` is a traced integer index
-    into `runtime.TRACED_DIRECTIONS` (`0`: smooth_wc, `1`: wc, `2`: linear, then any
-    scalarization registered after them) that overrides `config.scalarization`, so
-    scalarizations can be compared inside one compiled program
-    (`jax.vmap(train)(keys, prefs, directions)`).
+    (`[P, T, ...]` under the vmap). With the practical update's estimated utopia point
+    (`wcac_jax.utopia`), a plain `jax.vmap` lets each preference estimate its own, as a
+    sweep of that preference alone would; `jax.vmap(train, axis_name=utopia.PREF_AXIS)`
+    shares one across the batch, as `run_sweep` does.
+
+    The optional `direction` is a traced integer index into `runtime.TRACED_DIRECTIONS`
+    (`0`: smooth_wc, `1`: wc, `2`: linear, then any scalarization registered after them)
+    that overrides `config.scalarization`, so scalarizations can be compared inside one
+    compiled program (`jax.vmap(train)(keys, prefs, directions)`).
     """
     trainer = make_trainer(config, env)
 

@@ -596,9 +596,9 @@ def finish_iteration(
 def make_trainer(config: PracticalConfig, env) -> runtime.Trainer:
     """Builds the pure `init`/`run`/`step` of the practical update for `env`.
 
-    With `config.utopia == "estimated"`, `step` and `run` must be called under
-    `jax.vmap(..., axis_name=utopia.PREF_AXIS)` (the sweep does; one preference alone is
-    a vmap over one).
+    With `config.utopia == "estimated"`, `step` and `run` called under
+    `jax.vmap(..., axis_name=utopia.PREF_AXIS)` share the utopia point across the
+    preferences (the sweep does); anywhere else each preference estimates its own.
 
     Args:
       config: static sizes and hyperparameters.
