@@ -7,7 +7,19 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from wcac_jax import PracticalConfig, envs, make_train, scalarize, utopia
+from wcac_jax import (
+    PracticalConfig,
+    algos,
+    envs,
+    make_train,
+    networks,
+    runtime,
+    scalarize,
+    utopia,
+)
+from wcac_jax.algos import contract, practical
+from wcac_jax.config import Config, field, frozen_config
+from wcac_jax.sweep import SweepConfig, SweepError, load_sweep, run_sweep
 
 # a practical update small enough to compile in seconds on the bandit
 TINY = PracticalConfig(
@@ -66,3 +78,121 @@ def test_a_scalarization_registered_after_import_trains(bandit, squared_regret):
         _keys(2), jnp.array([[0.5, 0.5], [0.2, 0.8]]), index
     )
     np.testing.assert_array_equal(by_index["train/weights"], metrics["train/weights"])
+
+
+@frozen_config
+class _HalfWritten(Config):
+    """A configuration that forgot its temperature and its step count."""
+
+    num_iterations: int = field(10, "T")
+    gamma: float = field(0.99, "discount")
+    j_ub: tuple | None = field(None, "utopia point")
+    scalarization: str = field("smooth_wc", "direction")
+
+
+def test_an_update_without_the_contracts_fields_is_refused_at_registration():
+    with pytest.raises(contract.ContractError) as err:
+        algos.register("half_written", _HalfWritten, lambda config, env: None)
+    assert "lacks mu, env_steps_per_iteration (a property)" in str(err.value)
+    assert "half_written" not in algos.ALGOS
+    with pytest.raises(contract.ContractError, match="must be a config.Config subclass"):
+        algos.register("half_written", dict, lambda config, env: None)
+
+
+@frozen_config
+class _NoGMu(PracticalConfig):
+    """The practical update under another name, whose step forgets `train/g_mu`."""
+
+
+def _no_g_mu_trainer(config, env):
+    trainer = practical.make_trainer(config, env)
+
+    def step(state, pref, direction=None):
+        state, metrics = trainer.step(state, pref, direction)
+        return state, {k: v for k, v in metrics.items() if k != "train/g_mu"}
+
+    return runtime.assemble(
+        trainer.init, step, trainer.policy, trainer.value_network, trainer.preprocess, trainer.j_ub
+    )
+
+
+@pytest.fixture
+def no_g_mu():
+    algos.register("no_g_mu", _NoGMu, _no_g_mu_trainer)
+    yield _NoGMu
+    del algos.ALGOS["no_g_mu"]
+
+
+def test_an_update_whose_metrics_miss_a_key_is_refused_before_compiling(
+    no_g_mu, tmp_path, monkeypatch
+):
+    def compile_(*args, **kwargs):
+        raise AssertionError("compiled")
+
+    monkeypatch.setattr(jax.stages.Lowered, "compile", compile_)
+    config = SweepConfig(
+        prefs=((1.0, 0.0), (0.0, 1.0)),
+        env="concave_bandit",
+        train=no_g_mu(**{f: getattr(TINY, f) for f in ("num_envs", "rollout_steps")}).replace(
+            num_minibatches=2, num_epochs=1, width=8, depth=1
+        ),
+        steps_per_pref=16,
+    )
+    out = tmp_path / "run"
+    with pytest.raises(SweepError, match="update 'no_g_mu': .* train/g_mu is missing"):
+        run_sweep(config, str(out), progress=False)
+    assert not out.exists()
+    with pytest.raises(contract.ContractError, match="not a runtime.Trainer"):
+        algos.register("no_g_mu", _NoGMu, lambda config, env: (config, env))
+        algos.make_trainer(config.train, envs.make("concave_bandit"))
+
+
+def _narrow(calls):
+    """A network factory that records what it is asked for and builds tanh MLPs of
+    width 3 (the practical update's own are `TINY.width` = 8)."""
+
+    def factory(in_size, out_size, *, role):
+        calls.append((in_size, out_size, role))
+        return networks.tanh_mlp(in_size, out_size, 3, 1, 0.01 if role == "actor" else 1.0)
+
+    return factory
+
+
+def test_make_train_builds_its_networks_with_a_network_factory(bandit):
+    calls = []
+    state, _ = jax.jit(jax.vmap(make_train(TINY, bandit, network_factory=_narrow(calls))))(
+        _keys(2), PREFS
+    )
+    # the bandit: 1 observation, 1 action (the Gaussian's mean), 2 objectives
+    assert calls == [(1, 1, "actor"), (1, 2, "critic")]
+    kernels = [x.shape for x in jax.tree.leaves(state.actor.trainable) if x.ndim == 3]
+    assert kernels == [(2, 1, 3), (2, 3, 1)]  # [P, in, out]: input -> 3 -> mean
+
+
+def test_run_sweep_calls_progress_fn_and_load_sweep_takes_the_same_factory(bandit, tmp_path):
+    """Three iterations of 16 env steps (4 environments x 4 steps) in three chunks: the
+    hook sees each chunk's iteration, the env steps so far, and the sweep's networks
+    are the factory's, restored with it."""
+    config = SweepConfig(
+        prefs=((1.0, 0.0), (0.0, 1.0)), env="concave_bandit", train=TINY, steps_per_pref=48
+    )
+    seen = []
+    out = str(tmp_path / "run")
+    run_sweep(
+        config,
+        out,
+        chunks=3,
+        progress=False,
+        progress_fn=lambda steps, metrics: seen.append(
+            (steps, metrics["train/iteration"].tolist(), metrics["train/env_steps"].tolist())
+        ),
+        network_factory=_narrow([]),
+    )
+    assert seen == [
+        (16, [[1], [1]], [[16], [16]]),
+        (32, [[2], [2]], [[32], [32]]),
+        (48, [[3], [3]], [[48], [48]]),
+    ]
+    run = load_sweep(out, network_factory=_narrow([]))
+    kernels = [x.shape for x in jax.tree.leaves(run.state.actor.trainable) if x.ndim == 3]
+    assert kernels == [(2, 1, 3), (2, 3, 1)]

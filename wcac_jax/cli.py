@@ -136,7 +136,7 @@ def add_config_flags(parser: argparse.ArgumentParser, skip: tuple[str, ...] = ()
         )
 
 
-def apply_config_flags(args, train: algos.AnyConfig, name: str) -> algos.AnyConfig:
+def apply_config_flags(args, train: algos.UpdateConfig, name: str) -> algos.UpdateConfig:
     """`train` with every `CONFIG_FLAGS` flag given in `args` applied over it.
 
     On the practical update `--j-ub` means a fixed utopia point, so it also sets `utopia`

@@ -21,7 +21,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from wcac_jax.algos import ALGOS, AnyConfig, PaperConfig, PracticalConfig
+from wcac_jax.algos import ALGOS, PaperConfig, PracticalConfig, UpdateConfig
 
 # The paper's nine preferences (its Fig. 3): uneven steps, finer near the ends.
 PAPER_PREFS = (
@@ -42,7 +42,7 @@ DEFAULT_N_PREFS = 9  # evenly spaced on the simplex, unless a preset or flag say
 PRESETS = tuple(ALGOS)
 
 
-def preset(name: str) -> AnyConfig:
+def preset(name: str) -> UpdateConfig:
     """The named configuration (`paper` or `practical`): the update's own defaults.
 
     Raises:
@@ -73,7 +73,7 @@ class Defaults:
     """
 
     preset: str
-    config: AnyConfig
+    config: UpdateConfig
     steps_per_pref: int
     note: str
     env_options: tuple[tuple[str, str], ...] = ()

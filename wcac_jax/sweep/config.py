@@ -12,7 +12,7 @@ import jax
 import numpy as np
 
 from wcac_jax import envs, selection
-from wcac_jax.algos import AnyConfig, PaperConfig, from_dict, to_dict
+from wcac_jax.algos import PaperConfig, UpdateConfig, from_dict, to_dict
 from wcac_jax.outputs import json_bytes, unwritable_dir
 
 PAPER_STEPS_PER_PREF = 1_000_000
@@ -51,7 +51,7 @@ class SweepConfig:
     prefs: tuple[tuple[float, ...], ...]
     env: str = "walker2d"
     env_options: dict = field(default_factory=dict)
-    train: AnyConfig = field(default_factory=PaperConfig)
+    train: UpdateConfig = field(default_factory=PaperConfig)
     steps_per_pref: int = 100_000
     seed: int = 0
     eval_episodes: int = 8
@@ -105,7 +105,7 @@ class SweepConfig:
         every = math.ceil(self.select_every / self.train.env_steps_per_iteration)
         return selection.candidate_iterations(self.num_iterations, self.select_last, every)
 
-    def train_config(self) -> AnyConfig:
+    def train_config(self) -> UpdateConfig:
         return self.train.replace(num_iterations=self.num_iterations)
 
     def to_dict(self) -> dict:

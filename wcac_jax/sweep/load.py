@@ -52,8 +52,9 @@ class LoadedSweep(NamedTuple):
         return conditioned.policy_at(self.trainer, jax.tree.map(lambda x: x[0], self.state), pref)
 
 
-def load_sweep(out: str) -> LoadedSweep:
-    """Restores the last checkpoint of the sweep in `out`, finished or interrupted.
+def load_sweep(out: str, network_factory=None) -> LoadedSweep:
+    """Restores the last checkpoint of the sweep in `out`, finished or interrupted (a
+    sweep trained with a `network_factory` of its own needs the same one here).
 
     The trained policies and critics, to evaluate, render or inspect; or, after a
     `TrainingDiverged`, the last good state, to replay iteration by iteration:
@@ -77,7 +78,7 @@ def load_sweep(out: str) -> LoadedSweep:
     if manager.latest_step() is None:
         raise SweepError(f"no checkpoint in {out!r}")
     env = make_env(config)
-    trainer = make_trainer(config.train_config(), env)
+    trainer = make_trainer(config.train_config(), env, network_factory)
     n_prefs, n_iters = len(config.prefs), config.num_iterations
     # the checkpoint's state and candidates hold the rows the sweep ran: the preferences
     # padded to its device count by repeating the last (`wcac_jax.sweep.run._lay_out`)
@@ -98,7 +99,7 @@ def load_sweep(out: str) -> LoadedSweep:
     }
     pool = None
     if config.select_last > 1:
-        evaluate = make_evaluate(config.train_config(), env, config.eval_episodes)
+        evaluate = make_evaluate(config.train_config(), env, config.eval_episodes, trainer)
         found = jax.eval_shape(jax.vmap(evaluate), state, keys)
         pool = selection.Pool(config.candidate_iterations, template["state"], found)
         template["selection"] = pool.tree
