@@ -32,6 +32,7 @@ _NAMES = {
     "wc": "wcac_jax.scalarize",
     "wc_weights": "wcac_jax.scalarize",
     "SweepConfig": "wcac_jax.sweep",
+    "default_sweep": "wcac_jax.sweep",
     "load_sweep": "wcac_jax.sweep",
     "run_sweep": "wcac_jax.sweep",
 }

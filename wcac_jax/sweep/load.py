@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import json
-import os
 from typing import Any, NamedTuple
 
 import jax
@@ -13,7 +11,7 @@ import numpy as np
 from wcac_jax import checkpoint, selection
 from wcac_jax.algos import ConditionedConfig, conditioned, make_evaluate, make_trainer
 from wcac_jax.runtime import Trainer, UpdateState, with_env_steps
-from wcac_jax.sweep.config import SweepConfig, SweepError, make_env
+from wcac_jax.sweep.config import SweepConfig, SweepError, make_env, read_config
 from wcac_jax.utopia import PREF_AXIS
 
 
@@ -39,6 +37,19 @@ class LoadedSweep(NamedTuple):
     state: UpdateState
     metrics: dict
     chosen: UpdateState | None = None
+
+    @property
+    def reported(self) -> UpdateState:
+        """Each preference's reported policy, the one `front.json` evaluated (leaves
+        `[P, ...]`): `chosen` where the sweep chose among its last policies, else
+        `state`."""
+        return self.state if self.chosen is None else self.chosen
+
+    def policy(self, i: int):
+        """`obs [..., obs] -> action`: preference `i`'s reported policy, its mean action
+        as the environment takes it."""
+        state = jax.tree.map(lambda leaf: leaf[i], self.reported)
+        return lambda obs: self.trainer.mean_action(state, obs)
 
     def policy_at(self, pref):
         """`obs [..., obs] -> action`, the mean action at the preference `pref` `[m]` of a
@@ -66,14 +77,7 @@ def load_sweep(out: str, network_factory=None) -> LoadedSweep:
     Raises:
       SweepError: `out` holds no sweep configuration or no checkpoint.
     """
-    path = os.path.join(out, "config.json")
-    if not os.path.isfile(path):
-        raise SweepError(f"no sweep in {out!r} (no config.json)")
-    try:
-        with open(path) as f:
-            config = SweepConfig.from_dict(json.load(f))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError, KeyError, TypeError) as err:
-        raise SweepError(f"{path!r} holds no readable sweep config ({err!r})") from None
+    config = read_config(out, context="")
     manager = checkpoint.manager(out)
     if manager.latest_step() is None:
         raise SweepError(f"no checkpoint in {out!r}")

@@ -42,6 +42,7 @@ from wcac_jax.sweep.config import (
     check_output_dir,
     default_hv_ref,
     make_env,
+    read_json,
     validate_prefs,
 )
 from wcac_jax.sweep.progress import Pace, Progress, note
@@ -502,17 +503,7 @@ def _finished(out: str) -> dict | None:
     saved = {}
 
     def read():
-        path = os.path.join(out, "front.json")
-        if not os.path.isfile(path):
-            return
-        try:
-            with open(path) as f:
-                front = json.load(f)
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
-            raise SweepError(f"--resume: {path!r} is not readable JSON ({err})") from None
-        if not isinstance(front, dict):
-            raise SweepError(f"--resume: {path!r} holds no front (a {type(front).__name__})")
-        saved.update(front)
+        saved.update(read_json(os.path.join(out, "front.json"), "--resume: ", "front") or {})
 
     _on_writer(read)
     if not distributed.all_ok(bool(saved)):
