@@ -133,8 +133,8 @@ def test_explicit_flags_override_the_preset():
         (["--critic-steps", "3"], "--critic-steps does not apply to walker2d's default"),
         (["--preset", "paper", "--num-epochs", "3"], "--num-epochs does not apply to the paper"),
         (["--utopia", "guess"], "utopia must be one of fixed, estimated; got 'guess'"),
-        (["--num-minibatches", "7"], "num_minibatches 7 must divide"),
-        (["--utopia-margin", "-0.1"], "utopia_margin must be >= 0 and finite, got -0.1"),
+        (["--num-minibatches", "7"], "--num-minibatches 7 must divide"),
+        (["--utopia-margin", "-0.1"], "--utopia-margin must be >= 0 and finite, got -0.1"),
         (["--augment", "-0.1"], "augment must be >= 0 and finite, got -0.1"),
         (["--preset", "paper", "--augment", "0.01"], "--augment does not apply to the paper"),
         # flags the configuration would silently ignore
@@ -223,11 +223,11 @@ def test_config_flags_come_from_every_field_with_its_doc_and_true_defaults(capsy
                 assert name in flags
     assert flags["num_envs"] == "envs_per_pref"
     with pytest.raises(SystemExit):
-        cli.main(["--help"])
+        cli.main(["--help-all"])
     out = " ".join(capsys.readouterr().out.split())
     assert "discount (preset default: paper 0.99, practical 0.99, conditioned 0.99)" in out
     # Walker2d's command-line defaults: Gymnasium's v5 model on MuJoCo's C engine
-    assert "(default: gymnasium-v5)" in out and "(default: mujoco)" in out
+    assert "gymnasium-v5 or brax (gymnasium-v5)" in out and "(for accelerators) (mujoco)" in out
     # a flag of the other update's field is refused, naming it
     with pytest.raises(sweep.SweepError, match="--clip-eps does not apply"):
         _config("--preset", "paper", "--clip-eps", "0.1")

@@ -84,8 +84,8 @@ class PaperConfig(Config):
     )
     scalarization: str = field(
         "smooth_wc",
-        "the actor's direction: a registered scalarization (smooth_wc, the method; wc; "
-        "linear) or mgda (MGDA's common-descent direction, a baseline)",
+        "the actor's direction, a registered scalarization (smooth_wc is the method) or "
+        "mgda (MGDA's common-descent direction, a baseline)",
         one_of(_scalarization_names),
     )
     network: str = field(

@@ -116,7 +116,7 @@ class PracticalConfig(Config):
     )
     scalarization: str = field(
         "smooth_wc",
-        "a registered scalarization: smooth_wc (the method), wc, linear",
+        "the actor's direction, a registered scalarization (smooth_wc is the method)",
         one_of(lambda: tuple(scalarize.SCALARIZATIONS)),
     )
     augment: float = field(
