@@ -198,7 +198,9 @@ def test_cli_trains_one_network_and_evaluates_it_at_every_preference(tmp_path, c
 
 def _experiment():
     import importlib.util
+    import sys
 
+    sys.path.insert(0, os.path.join(ROOT, "experiments"))  # the scripts beside it
     path = os.path.join(ROOT, "experiments", "conditioned_front.py")
     found = importlib.util.spec_from_file_location("conditioned_front", path)
     module = importlib.util.module_from_spec(found)
@@ -209,7 +211,7 @@ def _experiment():
 ROOT = os.path.join(os.path.dirname(__file__), os.pardir)
 
 
-def test_pgmorl_scale_and_rank_correlation_by_hand():
+def test_pgmorl_scale_by_hand():
     exp = _experiment()
     front = {
         "prefs": [
@@ -217,8 +219,10 @@ def test_pgmorl_scale_and_rank_correlation_by_hand():
             {"return": [400.0, 100.0], "episode_length": 200.0},
         ]
     }
-    # (R0, R1 + 4 L): the control objective as sum(5 - |a|^2)
-    np.testing.assert_array_equal(exp.pgmorl_points(front), [[2000.0, 1500.0], [400.0, 900.0]])
+    # (R0, R1 + 4 L): the control objective as sum(5 - |a|^2), mo_mujoco's mapping
+    np.testing.assert_array_equal(
+        exp.pgmorl_returns("walker2d", front), [[2000.0, 1500.0], [400.0, 900.0]]
+    )
 
 
 def test_committed_experiment_summary_is_what_its_fronts_give():
