@@ -8,7 +8,8 @@ always the one a committed result holds, with a link to it.
     python docs/tables.py           # rewrite the blocks in place
     python docs/tables.py --check   # exit 1, naming each block that differs
 
-It reads JSON only (no `wcac_jax` import, no JAX), so it runs anywhere in a second.
+It reads JSON only, and computes with the package's front metrics (`wcac_jax.pareto`,
+numpy only: no JAX is loaded), so it runs anywhere in a second.
 """
 
 from __future__ import annotations
@@ -25,6 +26,10 @@ from functools import cache, partial
 import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, ROOT)  # this checkout's package, beside the results it reads
+
+from wcac_jax import pareto  # noqa: E402
+
 RES = "experiments/results"
 
 # Results by what they are; every input path of this script is here.
@@ -181,42 +186,13 @@ def speed_and_control(forward: float, control: float, length: float) -> tuple[fl
     return (forward - length + f) / length, (length - f - control) / length
 
 
-def nondominated(points: list[tuple[float, float]]) -> list[bool]:
-    return [not any(q[0] >= p[0] and q[1] >= p[1] and q != p for q in points) for p in points]
+def nondominated(points) -> list[bool]:
+    """Which of `points` `[n, 2]` no other point dominates (`pareto.nondominated`)."""
+    return pareto.nondominated(points).tolist()
 
 
 def hypervolume(points, ref=STATED_REF) -> float:
-    pts = sorted(
-        (p for p, nd in zip(points, nondominated(points), strict=True) if nd), reverse=True
-    )
-    hv, y_prev = 0.0, ref[1]
-    for x, y in pts:
-        if x > ref[0] and y > y_prev:
-            hv += (x - ref[0]) * (y - y_prev)
-            y_prev = y
-    return hv
-
-
-def spearman(a, b) -> float:
-    def ranks(v):
-        order = sorted(range(len(v)), key=lambda i: v[i])
-        r = [0.0] * len(v)
-        i = 0
-        while i < len(v):
-            j = i
-            while j + 1 < len(v) and v[order[j + 1]] == v[order[i]]:
-                j += 1
-            for k in range(i, j + 1):
-                r[order[k]] = (i + j) / 2
-            i = j + 1
-        return r
-
-    ra, rb = ranks(a), ranks(b)
-    ma, mb = sum(ra) / len(ra), sum(rb) / len(rb)
-    cov = sum((x - ma) * (y - mb) for x, y in zip(ra, rb, strict=True))
-    va = sum((x - ma) ** 2 for x in ra) ** 0.5
-    vb = sum((y - mb) ** 2 for y in rb) ** 0.5
-    return cov / (va * vb)
+    return pareto.hypervolume(points, ref)
 
 
 class Front:
@@ -239,7 +215,7 @@ class Front:
 
     @property
     def spearman(self) -> float:
-        return spearman([p[0] for p in self.prefs], [r[0] for r in self.returns])
+        return pareto.rank_correlation([p[0] for p in self.prefs], [r[0] for r in self.returns])
 
     def hv(self, ref=STATED_REF) -> float:
         return hypervolume(self.returns, ref)

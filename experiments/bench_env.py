@@ -19,11 +19,11 @@ import json
 import os
 import platform
 import resource
-import sys
 import time
 
 import jax
 import numpy as np
+from script_io import refuse_existing
 
 from wcac_jax import envs
 from wcac_jax.envs.wrappers import EpisodeWrapper
@@ -132,14 +132,6 @@ def qpos_drift(a: str, b: str, steps: int = 100, seed: int = 0):
         f"torso_x_{a}": float(traj[a][-1, 0]),
         f"torso_x_{b}": float(traj[b][-1, 0]),
     }
-
-
-def refuse_existing(path: str, overwrite: bool) -> None:
-    """Exit 2 with one line if the result file `path` exists and `overwrite` is not given:
-    checked before any measurement, so an earlier result is never lost by accident."""
-    if os.path.lexists(path) and not overwrite:
-        print(f"error: --out {path!r} exists (--overwrite replaces it)", file=sys.stderr)
-        raise SystemExit(2)
 
 
 def main(argv=None):

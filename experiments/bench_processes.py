@@ -22,6 +22,8 @@ import sys
 import tempfile
 import time
 
+from script_io import refuse_existing
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 DEFAULT_SWEEPS = (
     "--env walker2d --n-prefs 2 --steps-per-pref 100000",
@@ -94,14 +96,6 @@ def measure(sweep: str, devices: int, workdir: str, timeout_s: float) -> dict:
         with open(os.path.join(many_out, "front.csv")) as g:
             identical = f.read() == g.read()
     return {"sweep": sweep, "devices": devices, "runs": rows, "fronts_identical": identical}
-
-
-def refuse_existing(path: str, overwrite: bool) -> None:
-    """Exit 2 with one line if the result file `path` exists and `overwrite` is not given:
-    checked before any measurement, so an earlier result is never lost by accident."""
-    if os.path.lexists(path) and not overwrite:
-        print(f"error: --out {path!r} exists (--overwrite replaces it)", file=sys.stderr)
-        raise SystemExit(2)
 
 
 def main(argv=None) -> int:

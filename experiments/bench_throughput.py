@@ -40,6 +40,7 @@ import time
 
 import jax
 import jax.numpy as jnp
+from script_io import refuse_existing
 
 from wcac_jax import envs, pareto
 from wcac_jax.algos import PaperConfig, PracticalConfig, make_trainer
@@ -133,14 +134,6 @@ def bench_sequential(trainer, config, prefs, iters: int) -> dict:
         "run_s": total,
         "note": "compiled once; separate processes would compile once per preference",
     }
-
-
-def refuse_existing(path: str, overwrite: bool) -> None:
-    """Exit 2 with one line if the result file `path` exists and `overwrite` is not given:
-    checked before any measurement, so an earlier result is never lost by accident."""
-    if os.path.lexists(path) and not overwrite:
-        print(f"error: --out {path!r} exists (--overwrite replaces it)", file=sys.stderr)
-        raise SystemExit(2)
 
 
 def main(argv=None):

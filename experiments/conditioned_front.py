@@ -34,10 +34,12 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import sys
 import time
 
 import numpy as np
+import walker2d_common
+from mo_mujoco import pgmorl_returns
+from script_io import fail, finish_out, make_out
 
 # COLA (NeurIPS 2025) Table 1, Walker2d at 3M env steps: the hypervolume on this scale
 PUBLISHED_HV = {
@@ -53,41 +55,12 @@ ARMS = {
     "independent_9x1M": ["--n-prefs", "9"],
 }
 KEPT = ("front.json", "front.csv", "front.png", "config.json")
-HEALTHY_PER_STEP = 4.0  # PGMORL's control objective is 5 - |a|^2; v5's is 1 - |a|^2
-
-
-def pgmorl_points(front: dict) -> np.ndarray:
-    """`[P, 2]` `(R0, R1 + 4 L)` of every evaluated preference."""
-    rows = front["prefs"]
-    ret = np.array([r["return"] for r in rows], np.float64)
-    length = np.array([r["episode_length"] for r in rows], np.float64)
-    return np.stack([ret[:, 0], ret[:, 1] + HEALTHY_PER_STEP * length], axis=1)
-
-
-def spearman(x, y) -> float:
-    """Spearman's rank correlation (ties take their mean rank)."""
-
-    def ranks(v):
-        v = np.asarray(v, np.float64)
-        order = np.argsort(v, kind="stable")
-        r = np.empty(len(v))
-        r[order] = np.arange(len(v))
-        for value in np.unique(v):
-            tied = v == value
-            r[tied] = r[tied].mean()
-        return r
-
-    rx, ry = ranks(x), ranks(y)
-    return float(np.corrcoef(rx, ry)[0, 1])
 
 
 def forward_speed(front: dict, i: int) -> float:
     """Row `i`'s mean x velocity from its forward return `R0 = sum(v_x + healthy)`, the
     healthy reward withheld on a falling step: exact where the mean length fixes the
     falls, else the middle of the range they allow (`walker2d_common.policy_summary`)."""
-    sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-    import walker2d_common
-
     summary = walker2d_common.policy_summary(
         front["prefs"][i], *walker2d_common.evaluation_setup(front)
     )
@@ -109,11 +82,11 @@ def front_metrics(front: dict) -> dict:
     cond = front.get("conditioned", {})
     return {
         "n_prefs": len(rows),
-        "hv_pgmorl": pareto.hypervolume(pgmorl_points(front), [0.0, 0.0]),
+        "hv_pgmorl": pareto.hypervolume(pgmorl_returns("walker2d", front), [0.0, 0.0]),
         "hv_project": front["hypervolume"],
         "expected_utility": front["expected_utility"],
         "nondominated": int(sum(r["nondominated"] for r in rows)),
-        "spearman_p0_forward": spearman(prefs[:, 0], ret[:, 0]),
+        "spearman_p0_forward": pareto.rank_correlation(prefs[:, 0], ret[:, 0]),
         "forward_end_speed": forward_speed(front, fwd),
         "forward_end_length": float(length[fwd]),
         "control_end_control_return": float(ret[ctrl, 1]),
@@ -155,18 +128,16 @@ def run_arm(arm: str, seed: int, work: str, out: str) -> dict:
         "process_s": seconds,
         "cpus": os.cpu_count(),
     }
+    from wcac_jax.outputs import write_atomic  # imported late, as every wcac_jax module here
+
     write_atomic(recorded, (json.dumps(machine, indent=1)).encode())
     return machine
 
 
-def write_atomic(path: str, data: bytes) -> None:
-    from wcac_jax import outputs  # imported late, as every wcac_jax module here
-
-    outputs.write_atomic(path, data)
-
-
 def copy_atomic(src: str, directory: str) -> None:
     """`src` copied into `directory` under its own name, atomically."""
+    from wcac_jax.outputs import write_atomic
+
     with open(src, "rb") as f:
         write_atomic(os.path.join(directory, os.path.basename(src)), f.read())
 
@@ -215,6 +186,8 @@ def read_fronts(out: str, reuse_9x1m: str | None) -> dict:
 
 
 def summarize(out: str, reuse_9x1m: str | None, cost: list | None) -> dict:
+    from wcac_jax.outputs import write_atomic
+
     fronts = read_fronts(out, reuse_9x1m)
     per_run = {
         arm: {seed: front_metrics(f) for seed, f in by_seed.items()}
@@ -300,7 +273,7 @@ def main(argv=None) -> None:
     args = p.parse_args(argv)
     if args.summarize_only and args.overwrite:  # it would replace --out by an empty summary
         fail(f"--out {args.out!r}: --summarize-only reads it and --overwrite replaces it")
-    out = make_out(args.out, args.resume or args.summarize_only, args.overwrite)
+    out = make_out(args.out, args.resume or args.summarize_only, args.overwrite, resume_adds=True)
     if not args.summarize_only:
         for seed in args.seeds:
             for arm in args.arms:
@@ -317,37 +290,8 @@ def main(argv=None) -> None:
         with open(os.path.join(out, "summary.json")) as f:
             cost = json.load(f).get("cost_growth")
     summary = summarize(out, args.reuse_9x1m, cost)
-    if out != args.out:
-        from wcac_jax.outputs import replace_dir
-
-        replace_dir(out, args.out)
+    finish_out(out, args.out)
     print(markdown(summary))
-
-
-def fail(message: str) -> None:
-    print(f"error: {message}", file=sys.stderr)
-    raise SystemExit(2)
-
-
-def make_out(out: str, resume: bool, overwrite: bool) -> str:
-    """The directory the run writes to: `out` (created; a non-empty one only with
-    `resume`), or with `overwrite` a fresh one beside it that replaces it when finished.
-    Refuses (exit 2, one line) before any training."""
-    from wcac_jax.outputs import fresh_staging_dir
-
-    if resume and overwrite:
-        fail(f"--out {out!r}: --resume adds to it and --overwrite replaces it: give one")
-    if os.path.exists(out) and not os.path.isdir(out):
-        fail(f"--out {out!r} exists and is not a directory")
-    if overwrite:
-        work, problem = fresh_staging_dir(out)
-        if problem:
-            fail(f"--overwrite: --out {out!r} can't be replaced ({problem})")
-        return work
-    if os.path.isdir(out) and os.listdir(out) and not resume:
-        fail(f"--out {out!r} is not empty (--resume adds to it, --overwrite replaces it)")
-    os.makedirs(out, exist_ok=True)
-    return out
 
 
 if __name__ == "__main__":

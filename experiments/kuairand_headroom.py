@@ -23,12 +23,12 @@ from dataclasses import replace
 
 import jax
 import jax.numpy as jnp
-import kuairand_table2 as table2
+import kuairand_table2
 import numpy as np
 
 from wcac_jax.outputs import out_refusal, replace_dir, staging_dir
 from wcac_jax.recsys import ncis as ncis_lib
-from wcac_jax.recsys import offline
+from wcac_jax.recsys import offline, table2
 from wcac_jax.recsys.cli import ArgumentParser
 from wcac_jax.recsys.data import PROTOCOLS, load
 from wcac_jax.recsys.synth import MODEL_FILE, ResponseModel
@@ -42,10 +42,10 @@ def headroom(data_dir: str, cfg: offline.OfflineConfig, seed: int, protocol="def
     model = ResponseModel.load(os.path.join(data_dir, MODEL_FILE))
     obj = offline.objectives(data, cfg.gamma, cfg.ub_margin)
     coeff = table2.UNIFIED * np.asarray(obj.scale, np.float64) / (1.0 - cfg.gamma)
-    truth = table2._truth_tables(model, data)  # [n, C, 7]
+    truth = table2.truth_tables(model, data)  # [n, C, 7]
     train, act = offline.make_train_bc(cfg, data)
     params, _ = jax.jit(train)(jax.random.key(seed), data)
-    bc = jnp.asarray(table2._test_actions(act, params, data, False), jnp.float32)
+    bc = jnp.asarray(table2.actions_on_rows(act, params, data, False), jnp.float32)
     c32 = jnp.asarray(coeff, jnp.float32)
     out = {}
     for sigma in SIGMAS:
@@ -63,7 +63,7 @@ def main(argv=None) -> int:
     parser = ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--data", required=True, nargs="+")
     parser.add_argument("--out", required=True)
-    parser.add_argument("--steps", type=int, default=table2.DEFAULT.steps)
+    parser.add_argument("--steps", type=int, default=kuairand_table2.DEFAULT.steps)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--protocol", choices=PROTOCOLS, default="default")
     parser.add_argument("--overwrite", action="store_true", help="replace a non-empty --out whole")
@@ -72,7 +72,7 @@ def main(argv=None) -> int:
     if refusal:
         print(f"error: {refusal}", file=sys.stderr)
         return 2
-    cfg = replace(table2.DEFAULT, steps=args.steps)
+    cfg = replace(kuairand_table2.DEFAULT, steps=args.steps)
     per = [headroom(d, cfg, args.seed, args.protocol) for d in args.data]
     result = {
         "protocol": args.protocol,

@@ -70,21 +70,24 @@ from wcac_jax.outputs import unwritable_dir, write_atomic
 from wcac_jax.recsys import alg1, offline, stats
 from wcac_jax.recsys import ncis as ncis_lib
 from wcac_jax.recsys.cli import ArgumentParser
-from wcac_jax.recsys.data import PROTOCOLS, SIGNALS, DataError, Protocol, for_test_rows, load
+from wcac_jax.recsys.data import PROTOCOLS, SIGNALS, DataError, load
 from wcac_jax.recsys.kuairand import VERSIONS
 from wcac_jax.recsys.synth import MODEL_FILE, ResponseModel
+from wcac_jax.recsys.table2 import (
+    CURVE_POINTS,
+    NAMES,
+    UNIFIED,
+    fig2_scores,
+    leaning_prefs,
+    logged_contexts,
+    per_seed,
+    score_rows,
+    signals,
+    summarise,
+    train_data_set,
+    truth_tables,
+)
 
-NAMES = {
-    "bc": "Behavior-Clone",
-    "moac": "MOAC (linear)",
-    "mocha": "MOCHA (linear)",
-    "pdpg": "PDPG (DNN)",
-    "wcac": "wcac (DDPG-style)",
-    "alg1": "wcac (Algorithm 1)",
-    "oracle": "Oracle",
-}
-ACTOR_CRITICS = ("moac", "mocha", "pdpg", "wcac", "alg1")
-ORDER = ("bc", *ACTOR_CRITICS, "oracle")
 # Table 2's column scales, as the paper prints them
 COLUMNS = (
     ("click", "Click↑", 1.0),
@@ -95,58 +98,11 @@ COLUMNS = (
     ("hate", "Dislike↓ (e-4)", 1e4),
     ("watch_time", "WatchTime↑", 1.0),
 )
-UNIFIED = np.full(7, 1.0 / 7)
-LEAN = 0.4  # a leaning preference: 0.4 on its signal, 0.1 on each of the six others
-CURVE_POINTS = 40  # training curves: means over this many equal windows of the steps
 N_BOOT = 1000
-
-
-def leaning_prefs() -> np.ndarray:
-    """`[7, 7]`: row `i` puts `LEAN` on signal `i` and the rest evenly on the others."""
-    p = np.full((7, 7), (1.0 - LEAN) / 6)
-    np.fill_diagonal(p, LEAN)
-    return p
 
 
 QUICK = offline.OfflineConfig(steps=40, batch_size=32, width=16, critic_warmup=0.25)
 DEFAULT = offline.OfflineConfig(steps=2000, batch_size=256, width=64)
-
-
-def _test_actions(act, params, data: Protocol, batch_axis: bool, rows=None, chunk: int = 4096):
-    """The policy's `action(s)` on `rows` (default: the test rows, with the test split's
-    normalisation, `for_test_rows`; pass that yourself with other test `rows`): `[P, n]`
-    (or `[n]`)."""
-    fn = jax.jit(jax.vmap(act, in_axes=(0, None)) if batch_axis else act)
-    if rows is None:
-        data, rows = for_test_rows(data), np.arange(data.n_train, data.n_rows)
-    out = []
-    for start in range(0, rows.shape[0], chunk):
-        r = jnp.asarray(rows[start : start + chunk])
-        out.append(np.asarray(fn(params, offline.net_input(data, r))))
-    return np.concatenate(out, axis=-1)
-
-
-def _test_contexts(model: ResponseModel, data: Protocol) -> np.ndarray:
-    """`[n_test, K]` each test row's logged session context (video ids, -1 none)."""
-    return model.logged_context(np.asarray(data.log_row[data.n_train :]))
-
-
-def _truth_tables(model: ResponseModel, data: Protocol, chunk: int = 1024):
-    """`[n_test, C, 7]` true expected signals of each candidate shown in place of each
-    test row's logged video: that row's user, in that row's logged session context."""
-    users = data.user_ids[np.asarray(data.user_index[data.n_train :])]
-    context = _test_contexts(model, data)
-    out = np.empty((users.shape[0], data.n_candidates, 7), np.float32)
-    for s in range(0, users.shape[0], chunk):  # [chunk, C, K] intermediates stay small
-        out[s : s + chunk] = model.expected(
-            users[s : s + chunk, None], data.video_ids[None, :], context[s : s + chunk, None, :]
-        )
-    return jnp.asarray(out)
-
-
-def _percent(diff: float, ref: float):
-    """`100 diff / |ref|`, or None (JSON null) when `ref` is 0."""
-    return None if ref == 0 else 100.0 * float(diff) / abs(float(ref))
 
 
 def _fmt(v: float, scale: float) -> str:
@@ -256,202 +212,6 @@ def plot_fig2(fig2: dict, path: str) -> None:
     os.replace(path + ".tmp.png", path)
 
 
-def _curves(metrics: dict) -> dict:
-    """Per seed, the critic loss and the mean action averaged over `CURVE_POINTS` equal
-    windows of the training steps: `{name: [S, points]}`."""
-    out = {}
-    for key in ("critic_loss", "mean_action"):
-        x = np.asarray(metrics[f"train/{key}"], np.float64)  # [S, steps]
-        points = min(CURVE_POINTS, x.shape[1])
-        n = x.shape[1] - x.shape[1] % points
-        out[key] = x[:, :n].reshape(x.shape[0], points, -1).mean(axis=-1).tolist()
-    return out
-
-
-def train_data_set(data: Protocol, cfg, acfg, key, seeds: int, lean: bool, log):
-    """Every method on one data set: `(actions, curves, behaviour, times)`.
-
-    `actions[method]` is `[S, n_test]` (wcac (Algorithm 1) `[S + 7, n_test]` with `lean`:
-    the 7 leaning preferences of Fig. 2 after the unified ones); `behaviour` `[n_rows]` is
-    the behaviour model's action on every row, a Behavior-Clone of its own key.
-    """
-    obj = offline.objectives(data, cfg.gamma, cfg.ub_margin)
-    keys = jax.random.split(key, len(ORDER) + 1)
-    actions, curves, times = {}, {}, {}
-    t = time.perf_counter()
-    bc_train, bc_act = offline.make_train_bc(cfg, data)
-    bc_keys = jax.random.split(keys[0], seeds + 1)  # the last: the behaviour model
-    bc_params, bc_losses = jax.jit(jax.vmap(bc_train, in_axes=(0, None)))(bc_keys, data)
-    for losses in np.asarray(bc_losses):  # one row per key
-        offline.check_finite(NAMES["bc"], "loss", losses)
-    train_rows, test_rows = np.arange(data.n_train), np.arange(data.n_train, data.n_rows)
-    every = np.concatenate(  # each split's rows with its own normalisation (tscac)
-        [
-            _test_actions(bc_act, bc_params, data, True, rows=train_rows),
-            _test_actions(bc_act, bc_params, for_test_rows(data), True, rows=test_rows),
-        ],
-        axis=-1,
-    )
-    behaviour = every[-1]
-    actions["bc"] = every[:seeds, data.n_train :]
-    times["bc"] = time.perf_counter() - t
-    log(f"  Behavior-Clone x{seeds + 1}: {times['bc']:.1f}s")
-    for i, method in enumerate(ACTOR_CRITICS, 1):
-        prefs = np.repeat(UNIFIED[None], seeds, axis=0)
-        if method == "alg1" and lean:
-            prefs = np.vstack([prefs, leaning_prefs()])
-        pkeys = jax.random.split(keys[i], seeds)
-        pkeys = jnp.concatenate([pkeys, jnp.repeat(pkeys[:1], len(prefs) - seeds, axis=0)])
-        t = time.perf_counter()
-        prefs = jnp.asarray(prefs, jnp.float32)
-        if method == "alg1":
-            train, act = alg1.make_train(cfg, acfg, data)
-            sweep = jax.jit(jax.vmap(train, in_axes=(0, 0, None, None, None)))
-            state, metrics = sweep(pkeys, prefs, data, obj, jnp.asarray(behaviour))
-        else:
-            train, act = offline.make_train(method, cfg, data)
-            sweep = jax.jit(jax.vmap(train, in_axes=(0, 0, None, None)))
-            state, metrics = sweep(pkeys, prefs, data, obj)
-        jax.block_until_ready(state)
-        offline.check_finite(NAMES[method], "critic loss", metrics["train/critic_loss"])
-        offline.check_finite(NAMES[method], "mean action", metrics["train/mean_action"])
-        actions[method] = _test_actions(act, state.actor, data, True)
-        curves[method] = _curves(jax.tree.map(lambda x: x[:seeds], metrics))
-        times[method] = time.perf_counter() - t
-        log(
-            f"  {NAMES[method]}: P={prefs.shape[0]}, {times[method]:.1f}s, mean test action "
-            f"{actions[method][:seeds].mean():.1f} (logged "
-            f"{float(data.action[data.n_train :].mean()):.1f})"
-        )
-    return actions, curves, behaviour, obj, times
-
-
-def score_rows(actions, behaviour, data: Protocol, truth_table, coeff):
-    """Per method the per-row pieces the table is made of (host numpy):
-    `w [S, n]`, `wr [S, n, 7]` (NCIS) and, with a truth table, `true [S, n, 8]` (the seven
-    signals and the unified objective `signals . coeff`), and each run's ESS `[S]`."""
-    logged = data.action[data.n_train :].astype(jnp.float32)
-    reward = np.asarray(data.reward[data.n_train :], np.float64)
-    beh = jnp.asarray(behaviour[data.n_train :], jnp.float32)
-    out = {}
-    for key, acts in actions.items():
-        w = np.stack(
-            [np.asarray(ncis_lib.importance_weights(jnp.asarray(a), beh, logged)) for a in acts]
-        ).astype(np.float64)
-        rows = {"w": w, "wr": w[:, :, None] * reward[None]}
-        rows["ess"] = np.array([float(ncis_lib.effective_sample_size(x)) for x in w])
-        if truth_table is not None:
-            true = np.stack(
-                [np.asarray(ncis_lib.true_rows(jnp.asarray(a), truth_table)) for a in acts]
-            ).astype(np.float64)
-            rows["true"] = np.concatenate([true, (true @ coeff)[..., None]], axis=-1)
-        out[key] = rows
-    return out
-
-
-def _signals(x) -> dict:
-    return dict(zip(SIGNALS, np.asarray(x).tolist(), strict=True))
-
-
-def _none(x):
-    """nan -> None (JSON null), elementwise over nested lists."""
-    if isinstance(x, list):
-        return [_none(v) for v in x]
-    return None if not np.isfinite(x) else float(x)
-
-
-def per_seed(scores: dict) -> dict:
-    """One data set's estimates per method and training seed on all of its test rows:
-    `{method: {"ncis": [S, 7], "truth": [S, 7], "unified_truth": [S]}}` (the truth
-    entries only with a response model). The table's point estimates are their means over
-    seeds, then data sets."""
-    out = {}
-    for k in ORDER:
-        sc = scores[k]
-        row = {"ncis": (sc["wr"].sum(axis=1) / sc["w"].sum(axis=1)[:, None]).tolist()}
-        if "true" in sc:
-            true = sc["true"].mean(axis=1)  # [S, 8]
-            row |= {"truth": true[:, :7].tolist(), "unified_truth": true[:, 7].tolist()}
-        out[NAMES[k]] = row
-    return out
-
-
-def summarise(per_data: list, draws: list, has_truth: bool, set_draws=None) -> dict:
-    """`table.json`'s `methods`: point estimates, 95% intervals, changes vs Behavior-Clone
-    (paired), ESS and, with the truth, the unified objective and the gap share: its
-    interval over test rows and seeds (conditional on the data sets), its value on each
-    data set, and (with `set_draws`) its interval with the data sets resampled too."""
-    ncis_rep = {
-        k: stats.ncis_replicates(
-            [d[k]["w"] for d in per_data], [d[k]["wr"] for d in per_data], draws
-        )
-        for k in ORDER
-    }
-    ones = [
-        stats.Draws(np.ones((1, d.counts.shape[1])), np.arange(d.seeds.shape[1])[None])
-        for d in draws
-    ]
-    ncis_pt = {
-        k: stats.ncis_replicates(
-            [d[k]["w"] for d in per_data], [d[k]["wr"] for d in per_data], ones
-        )[0]
-        for k in ORDER
-    }
-    if has_truth:
-        true_rep = {
-            k: stats.mean_replicates([d[k]["true"] for d in per_data], draws) for k in ORDER
-        }
-        true_pt = {k: stats.point([d[k]["true"].mean(axis=1) for d in per_data]) for k in ORDER}
-    methods = {}
-    for k in ORDER:
-        rel_rep = stats.relative(ncis_rep[k], ncis_rep["bc"])
-        row = {
-            "ncis": _signals(ncis_pt[k]),
-            "ncis_ci95": _signals(stats.ci95(ncis_rep[k])),
-            "vs_bc": _signals(_none(stats.relative(ncis_pt[k], ncis_pt["bc"]).tolist())),
-            "vs_bc_ci95": _signals(_none(stats.ci95(rel_rep).tolist())),
-            "ess": float(np.mean([d[k]["ess"].mean() for d in per_data])),
-        }
-        if has_truth:
-            t_rep, t_pt = true_rep[k], true_pt[k]
-            rel_rep = stats.relative(t_rep[:, :7], true_rep["bc"][:, :7])
-            diff_rep = t_rep[:, 7] - true_rep["bc"][:, 7]
-            gap_rep = stats.gap_share(t_rep[:, 7], true_rep["bc"][:, 7], true_rep["oracle"][:, 7])
-            row |= {
-                "truth": _signals(t_pt[:7]),
-                "truth_ci95": _signals(stats.ci95(t_rep[:, :7])),
-                "truth_vs_bc": _signals(
-                    _none(stats.relative(t_pt[:7], true_pt["bc"][:7]).tolist())
-                ),
-                "truth_vs_bc_ci95": _signals(_none(stats.ci95(rel_rep).tolist())),
-                "unified_truth": float(t_pt[7]),
-                "unified_truth_ci95": stats.ci95(t_rep[:, 7]).tolist(),
-                "unified_vs_bc": float(t_pt[7] - true_pt["bc"][7]),
-                "unified_vs_bc_ci95": stats.ci95(diff_rep).tolist(),
-                "gap_share": float(
-                    stats.gap_share(t_pt[7], true_pt["bc"][7], true_pt["oracle"][7])
-                ),
-                "gap_share_ci95": stats.ci95(gap_rep).tolist(),
-                "gap_share_by_data_set": [
-                    float(
-                        stats.gap_share(*(d[j]["true"][..., 7].mean() for j in (k, "bc", "oracle")))
-                    )
-                    for d in per_data
-                ],
-            }
-            if set_draws is not None:
-                unified = {
-                    j: stats.set_replicates(
-                        [d[j]["true"][:, :, 7].mean(axis=1)[:, None] for d in per_data], set_draws
-                    )[:, 0]
-                    for j in (k, "bc", "oracle")
-                }
-                sets_rep = stats.gap_share(unified[k], unified["bc"], unified["oracle"])
-                row["gap_share_ci95_data_sets"] = stats.ci95(sets_rep).tolist()
-        methods[NAMES[k]] = row
-    return methods
-
-
 def data_set_part(
     d: int, data_dir: str, cfg, acfg, seed: int, seeds: int, version, log, protocol="default"
 ):
@@ -469,7 +229,7 @@ def data_set_part(
     actions, curves, behaviour, obj, times = train_data_set(
         data, cfg, acfg, key, seeds, lean=(d == 0), log=log
     )
-    truth_table = _truth_tables(model, data) if model is not None else None
+    truth_table = truth_tables(model, data) if model is not None else None
     # the unified objective per step as the methods see it: p . scale / (1 - gamma)
     coeff = UNIFIED * np.asarray(obj.scale, np.float64) / (1.0 - cfg.gamma)
     if truth_table is not None:
@@ -482,14 +242,14 @@ def data_set_part(
     actions["alg1"] = actions["alg1"][:seeds]
     fig2 = None
     if d == 0:
-        fig2 = _fig2_scores(leaning, actions["alg1"][0], behaviour, data, truth_table)
+        fig2 = fig2_scores(leaning, actions["alg1"][0], behaviour, data, truth_table)
     test_reward = np.asarray(data.reward[data.n_train :])
-    logged = {"mean": _signals(test_reward.mean(0))}
+    logged = {"mean": signals(test_reward.mean(0))}
     if model is not None:
         users = np.asarray(data.user_index[data.n_train :])
         vids = data.video_ids[np.asarray(data.action[data.n_train :])]
-        ctx = _test_contexts(model, data)
-        logged["truth"] = _signals(model.expected(data.user_ids[users], vids, ctx).mean(axis=0))
+        ctx = logged_contexts(model, data)
+        logged["truth"] = signals(model.expected(data.user_ids[users], vids, ctx).mean(axis=0))
     size = {
         "data": os.path.abspath(data_dir),
         "rows": data.n_rows,
@@ -573,7 +333,7 @@ def run(
         "ncis_events": ncis_events(parts),
         "min_ncis_events": MIN_NCIS_EVENTS,
         "logged": {
-            k: _signals(np.mean([[li[k][s] for s in SIGNALS] for li in logged], axis=0))
+            k: signals(np.mean([[li[k][s] for s in SIGNALS] for li in logged], axis=0))
             for k in logged[0]
         },
     }
@@ -620,33 +380,6 @@ def run(
     write_results(out, files, fig2)
     log(f"done in {total:.1f}s; wrote {out}")
     return table
-
-
-def _fig2_scores(leaning, unified, behaviour, data: Protocol, truth_table) -> dict:
-    """Fig. 2: the 7 leaning policies against the unified one (NCIS and truth, %)."""
-    logged = data.action[data.n_train :].astype(jnp.float32)
-    reward = data.reward[data.n_train :]
-    beh = jnp.asarray(behaviour[data.n_train :], jnp.float32)
-    sign = np.array([-1.0 if s == "hate" else 1.0 for s in SIGNALS])
-    out = {"values": {}, "improvement": {}}
-    for kind in ("ncis", "truth"):
-        if kind == "truth" and truth_table is None:
-            continue
-        vals = []
-        for a in [unified, *leaning]:
-            a = jnp.asarray(a, jnp.float32)
-            if kind == "ncis":
-                vals.append(np.asarray(ncis_lib.ncis(a, beh, logged, reward)))
-            else:
-                vals.append(np.asarray(ncis_lib.true_value(a, truth_table)))
-        vals = np.array(vals)
-        ref = vals[0]
-        out["values"][kind] = {"unified": ref.tolist(), "leaning": vals[1:].tolist()}
-        # a reference of 0 (no event in the test rows) has no relative change: null
-        out["improvement"][kind] = [
-            [_percent(sign[j] * (v[j] - ref[j]), ref[j]) for j in range(7)] for v in vals[1:]
-        ]
-    return out
 
 
 def write_results(out: str, files: dict[str, str], fig2: dict) -> None:

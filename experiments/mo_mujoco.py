@@ -55,6 +55,8 @@ import subprocess
 import sys
 import time
 
+from script_io import fail, refuse_existing
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 RESULTS = os.path.join(ROOT, "experiments", "results", "mo_mujoco")
 SCALARIZATIONS = ("smooth_wc", "linear")
@@ -125,11 +127,6 @@ def sweep_command(
     return cmd + list(flags)
 
 
-def refuse(message: str) -> None:
-    print(f"error: {message}", file=sys.stderr)
-    raise SystemExit(2)
-
-
 def front_flags(out: str, resume: bool, overwrite: bool) -> list[str]:
     """The sweep flags for the front in `out`: none for a new one; for a non-empty one,
     `--resume` or `--overwrite` as asked, or a refusal."""
@@ -139,7 +136,7 @@ def front_flags(out: str, resume: bool, overwrite: bool) -> list[str]:
         return ["--overwrite"]
     if resume:
         return ["--resume"]
-    refuse(f"{out!r} is not empty (--resume continues it, --overwrite replaces it)")
+    fail(f"{out!r} is not empty (--resume continues it, --overwrite replaces it)")
 
 
 def front_dir(results: str, env: str, scalarization: str, seed: int = 0) -> str:
@@ -160,7 +157,7 @@ def run_fronts(
     directions=SCALARIZATIONS,
 ) -> int:
     if resume and overwrite:
-        refuse(f"--results {results!r}: --resume continues and --overwrite replaces: give one")
+        fail(f"--results {results!r}: --resume continues and --overwrite replaces: give one")
     outs = {(e, s): front_dir(results, e, s, seed) for e in envs for s in directions}
     # every front checked before the first is trained
     flags = {k: front_flags(out, resume, overwrite) for k, out in outs.items()}
@@ -564,18 +561,16 @@ def main(argv=None) -> int:
         steps = BUDGET[args.env] if args.steps is None else args.steps
         steps, episodes = (4096, 1) if args.smoke else (steps, args.eval_episodes)
         out = os.path.join(args.results, args.env, "reference_ppo.json")
-        if os.path.lexists(out) and not args.overwrite:
-            refuse(f"{out!r} exists (--overwrite replaces it)")
+        refuse_existing(out, args.overwrite, flag="")
         return run_ppo(args.env, out, steps, args.seed, episodes)
     for name in ("table.md", "table.json"):
         path = os.path.join(args.results, name)
-        if os.path.lexists(path) and not args.overwrite:
-            refuse(f"{path!r} exists (--overwrite replaces it)")
+        refuse_existing(path, args.overwrite, flag="")
     sys.path.insert(0, ROOT)
     try:
         summary = summarize(args.results)
     except ValueError as e:  # fronts that cannot be set side by side: nothing written
-        refuse(str(e))
+        fail(str(e))
     write_table(summary, args.results)
     print(f"wrote {args.results}/table.md and table.json: {len(summary['rows'])} fronts")
     return 0

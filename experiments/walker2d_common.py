@@ -13,18 +13,14 @@ import inspect
 import json
 import math
 import os
-import sys
 
 import jax
 import numpy as np
+from script_io import fail, finish_out, make_out  # noqa: F401 (the Walker2d scripts' own)
 
 from wcac_jax import cli, envs, pareto, presets
 from wcac_jax.algos import PaperConfig
-from wcac_jax.outputs import (
-    fresh_staging_dir,
-    library_versions,
-    replace_dir,
-)
+from wcac_jax.outputs import library_versions
 from wcac_jax.sweep import (
     SweepConfig,
     SweepError,
@@ -62,12 +58,6 @@ CONFIGS = {
     # estimates from all preferences). A different update, not a paper setting.
     "practical": presets.preset("practical"),
 }
-
-
-def fail(message, status: int = 2):
-    """One `error:` line on stderr, then exit with `status` (2: bad input, 3: NaN)."""
-    print(f"error: {message}", file=sys.stderr)
-    raise SystemExit(status)
 
 
 def add_run_args(parser: argparse.ArgumentParser, out: str) -> None:
@@ -128,39 +118,6 @@ def steps_per_pref(scale: float, steps: int | None) -> int:
 def smoothing_window(steps_per_iteration: int) -> int:
     """Iterations in a moving-average window of about `SMOOTH_STEPS` environment steps."""
     return max(1, round(SMOOTH_STEPS / steps_per_iteration))
-
-
-def make_out(out: str, resume: bool = False, overwrite: bool = False) -> str:
-    """Creates the directory the run writes to and returns it: `out`, refusing a
-    non-empty one (or, with `resume`, a missing or empty one: there is nothing to
-    continue); with `overwrite`, a fresh directory beside `out` (`staging_dir`) that
-    `finish_out` renames over it."""
-    if resume and overwrite:
-        fail("--resume continues the run in --out and --overwrite replaces it: give one")
-    if resume:
-        if not (os.path.isdir(out) and os.listdir(out)):
-            fail(f"--resume: nothing to resume in --out {out!r}")
-        return out
-    if os.path.exists(out) and not os.path.isdir(out):
-        fail(f"--out {out!r} exists and is not a directory")
-    if overwrite:
-        work, problem = fresh_staging_dir(out)
-        if problem:
-            fail(f"--overwrite: --out {out!r} can't be replaced ({problem})")
-        return work
-    if os.path.exists(out) and os.listdir(out):
-        fail(
-            f"--out {out!r} is not empty (--resume continues an interrupted run, "
-            "--overwrite replaces it)"
-        )
-    os.makedirs(out, exist_ok=True)
-    return out
-
-
-def finish_out(work: str, out: str) -> None:
-    """Puts the finished results in place: `work` (`make_out`'s) renamed over `out`."""
-    if os.path.abspath(work) != os.path.abspath(out):
-        replace_dir(work, out)
 
 
 def sweep(config: SweepConfig, out: str, chunks: int, resume: bool = False) -> dict:
@@ -302,25 +259,6 @@ def hypervolume_table(points, refs) -> list[dict]:
         }
         for ref in refs
     ]
-
-
-def rank_correlation(x, y) -> float:
-    """Spearman's rank correlation of two 1-D sequences (average ranks for ties)."""
-
-    def ranks(v):
-        v = np.asarray(v, dtype=float)
-        order = np.argsort(v, kind="stable")
-        r = np.empty(len(v))
-        r[order] = np.arange(len(v), dtype=float)
-        for value in np.unique(v):
-            tied = v == value
-            r[tied] = r[tied].mean()
-        return r
-
-    rx, ry = ranks(x), ranks(y)
-    if rx.std() == 0 or ry.std() == 0:
-        return float("nan")
-    return float(np.corrcoef(rx, ry)[0, 1])
 
 
 def machine() -> dict:

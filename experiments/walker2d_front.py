@@ -92,7 +92,7 @@ def direction_summary(front: dict) -> dict:
         "hypervolume_by_ref": common.hypervolume_table(points, common.hv_refs(front)),
         "cardinality": front["cardinality"],
         "distinct_points": int(len(np.unique(np.round(forward, 3)))),
-        "pref0_forward_rank_correlation": common.rank_correlation(
+        "pref0_forward_rank_correlation": pareto.rank_correlation(
             [pol["pref"][0] for pol in policies], forward
         ),
         "policies": policies,

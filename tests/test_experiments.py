@@ -406,16 +406,6 @@ def test_committed_walker2d_results_are_what_their_returns_give(tmp_path, name):
                 assert 0 <= pol["mean_control_per_step"] <= 6.0, (name, direction, pol)
 
 
-def test_rank_correlation_by_hand():
-    assert walker2d_common.rank_correlation([1, 2, 3], [30, 20, 10]) == pytest.approx(-1.0)
-    assert walker2d_common.rank_correlation([1, 2, 3, 4], [1, 3, 2, 4]) == pytest.approx(0.8)
-    # ties take their average rank: ranks (0, 1.5, 1.5) vs (0, 1, 2)
-    assert walker2d_common.rank_correlation([1, 2, 2], [1, 2, 3]) == pytest.approx(
-        np.corrcoef([0, 1.5, 1.5], [0, 1, 2])[0, 1]
-    )
-    assert np.isnan(walker2d_common.rank_correlation([1, 1], [1, 2]))
-
-
 def test_named_configs_keep_the_paper_setting_apart():
     paper = walker2d_common.CONFIGS["paper"]
     assert (paper.network, paper.actor_optimizer, paper.width, paper.depth) == (

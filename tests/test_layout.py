@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import ast
 import os
+import subprocess
+import sys
 
 import pytest
 
@@ -117,3 +119,35 @@ def test_no_function_over_150_lines():
                 if lines > MAX_FUNCTION_LINES:
                     long.append(f"{name}.{node.name}: {lines} lines")
     assert not long
+
+
+def test_the_front_metrics_load_without_jax():
+    """The package loads its names on first use: the numpy-only metrics import neither
+    JAX nor a physics engine, so that scripts that read results stay light."""
+    code = "import wcac_jax.pareto, sys; assert 'jax' not in sys.modules, 'jax'; " + (
+        "assert 'mujoco' not in sys.modules, 'mujoco'"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout == done.stderr == ""
+
+
+def test_docs_tables_computes_with_the_package_metrics():
+    """`docs/tables.py` computes the non-dominated set, hypervolume and rank correlation
+    with `wcac_jax.pareto`, not with copies of its own."""
+    tree = ast.parse(open(os.path.join(ROOT, "docs", "tables.py")).read())
+    imported = {
+        (node.module, a.name)
+        for node in ast.walk(tree)
+        if isinstance(node, ast.ImportFrom)
+        for a in node.names
+    }
+    assert ("wcac_jax", "pareto") in imported
+    loops = [  # a module-level function of that name with a loop of its own
+        node.name
+        for node in tree.body
+        if isinstance(node, ast.FunctionDef)
+        and node.name in ("nondominated", "hypervolume", "spearman", "ranks")
+        and any(isinstance(n, ast.For | ast.While | ast.comprehension) for n in ast.walk(node))
+    ]
+    assert not loops

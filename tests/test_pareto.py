@@ -108,6 +108,20 @@ def test_sparsity_and_cardinality():
     assert pareto.sparsity([[1, 1]]) == 0.0
 
 
+def test_rank_correlation_by_hand():
+    assert pareto.rank_correlation([1, 2, 3], [30, 20, 10]) == -1.0
+    # ranks (0, 1, 2, 3) and (0, 2, 1, 3): deviations (-1.5, -0.5, 0.5, 1.5) and
+    # (-1.5, 0.5, -0.5, 1.5), products sum to 4, squares to 5 each: 4 / 5
+    assert pareto.rank_correlation([1, 2, 3, 4], [1, 3, 2, 4]) == pytest.approx(0.8)
+    # ties take their mean rank: (0, 1.5, 1.5) against (0, 1, 2): 1.5 / sqrt(1.5 * 2)
+    assert pareto.rank_correlation([1, 2, 2], [1, 2, 3]) == pytest.approx(np.sqrt(3) / 2)
+    np.testing.assert_array_equal(pareto.ranks([0.5, 0.1, 0.5, 0.2]), [2.5, 0.0, 2.5, 1.0])
+    # a constant sequence has no order to correlate
+    assert np.isnan(pareto.rank_correlation([1, 1], [1, 2]))
+    with pytest.raises(ValueError, match="differ in length"):
+        pareto.rank_correlation([1, 2], [1, 2, 3])
+
+
 def test_simplex_lattice():
     np.testing.assert_allclose(pareto.simplex_lattice(2, 3), [[1, 0], [0.5, 0.5], [0, 1]])
     for m, n in [(3, 6), (3, 10), (4, 7), (3, 1)]:

@@ -3,6 +3,7 @@ the practical preset, and the notebook finding that run on its own."""
 
 import json
 import os
+import re
 import shutil
 
 import jax
@@ -26,10 +27,17 @@ def test_every_environment_has_a_default_and_help_shows_it(capsys):
         assert name in presets.ENV_DEFAULTS
     with pytest.raises(SystemExit):
         cli.main(["--help"])
-    out = " ".join(capsys.readouterr().out.split())
+    table = capsys.readouterr().out.split("each --env's default")[1].split("\n", 1)[1]
+    shown = {}  # environments sharing a default share a line: "a, b: preset, steps"
+    entries = re.split(r"\n  (?=\S)", "\n" + table.rstrip())[1:]
+    for entry in entries:
+        names, text = " ".join(entry.split()).split(": ", 1)
+        for name in names.split(", "):
+            shown[name] = text
+    assert set(shown) == set(envs.names())
     for name in envs.names():
         d = presets.ENV_DEFAULTS[name]
-        assert f"{name}: {d.preset}" in out and f"{d.steps_per_pref:,}" in out
+        assert shown[name].startswith(f"{d.preset}") and f"{d.steps_per_pref:,}" in shown[name]
 
 
 def test_environment_defaults_without_flags():
@@ -133,8 +141,8 @@ def test_explicit_flags_override_the_preset():
         (["--critic-steps", "3"], "--critic-steps does not apply to walker2d's default"),
         (["--preset", "paper", "--num-epochs", "3"], "--num-epochs does not apply to the paper"),
         (["--utopia", "guess"], "utopia must be one of fixed, estimated; got 'guess'"),
-        (["--num-minibatches", "7"], "num_minibatches 7 must divide"),
-        (["--utopia-margin", "-0.1"], "utopia_margin must be >= 0 and finite, got -0.1"),
+        (["--num-minibatches", "7"], "--num-minibatches 7 must divide"),
+        (["--utopia-margin", "-0.1"], "--utopia-margin must be >= 0 and finite, got -0.1"),
         (["--augment", "-0.1"], "augment must be >= 0 and finite, got -0.1"),
         (["--preset", "paper", "--augment", "0.01"], "--augment does not apply to the paper"),
         # flags the configuration would silently ignore
@@ -223,11 +231,11 @@ def test_config_flags_come_from_every_field_with_its_doc_and_true_defaults(capsy
                 assert name in flags
     assert flags["num_envs"] == "envs_per_pref"
     with pytest.raises(SystemExit):
-        cli.main(["--help"])
+        cli.main(["--help-all"])
     out = " ".join(capsys.readouterr().out.split())
     assert "discount (preset default: paper 0.99, practical 0.99, conditioned 0.99)" in out
     # Walker2d's command-line defaults: Gymnasium's v5 model on MuJoCo's C engine
-    assert "(default: gymnasium-v5)" in out and "(default: mujoco)" in out
+    assert "gymnasium-v5 or brax (gymnasium-v5)" in out and "(for accelerators) (mujoco)" in out
     # a flag of the other update's field is refused, naming it
     with pytest.raises(sweep.SweepError, match="--clip-eps does not apply"):
         _config("--preset", "paper", "--clip-eps", "0.1")

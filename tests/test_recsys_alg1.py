@@ -31,27 +31,25 @@ def _critics():
     return net, state, x, x_next, r, done
 
 
-def test_weighted_td_step_with_unit_weights_is_algorithm_2():
-    """`rho = 1`: the same step, projection and average as `critic.update`."""
+def test_critic_update_with_unit_weights_is_algorithm_2():
+    """`weight = 1`: the same step, projection and average as without a weight."""
     net, state, x, x_next, r, done = _critics()
-    kw = dict(gamma=0.9, radius=0.05)
-    want, d_want = critic_lib.update(net.apply, state, x, r, x_next, done, learning_rate=0.1, **kw)
-    got, d_got = alg1.weighted_td_step(
-        net.apply, state, x, r, x_next, done, jnp.ones(5), beta=0.1, **kw
-    )
+    kw = dict(gamma=0.9, radius=0.05, learning_rate=0.1)
+    want, d_want = critic_lib.update(net.apply, state, x, r, x_next, done, **kw)
+    got, d_got = critic_lib.update(net.apply, state, x, r, x_next, done, weight=jnp.ones(5), **kw)
     np.testing.assert_allclose(d_got, d_want, rtol=1e-6)
     for a, b in zip(jax.tree.leaves(got), jax.tree.leaves(want), strict=True):
         np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-7)
 
 
-def test_weighted_td_step_scales_each_transition_by_its_weight():
-    """Without projection the step is linear in `rho`: weights 2 on every row double it,
-    weight 0 on a row removes that row's part (the same as dropping the row)."""
+def test_critic_update_scales_each_transition_by_its_weight():
+    """Without projection the step is linear in the weight: weights 2 on every row double
+    it, weight 0 on a row removes that row's part (the same as dropping the row)."""
     net, state, x, x_next, r, done = _critics()
-    kw = dict(gamma=0.9, beta=0.1, radius=float("inf"))
+    kw = dict(gamma=0.9, learning_rate=0.1, radius=float("inf"))
     step = lambda rho, s=state, sl=slice(None): jax.tree.map(
         lambda n, o: n - o,
-        alg1.weighted_td_step(net.apply, s, x[sl], r[sl], x_next[sl], done[sl], rho, **kw)[
+        critic_lib.update(net.apply, s, x[sl], r[sl], x_next[sl], done[sl], weight=rho, **kw)[
             0
         ].params.trainable,
         s.params.trainable,

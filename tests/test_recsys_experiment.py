@@ -12,7 +12,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from wcac_jax.recsys import synth
+from wcac_jax.recsys import synth, table2
 from wcac_jax.recsys.data import SIGNALS, load
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -260,7 +260,7 @@ def test_truth_is_each_test_rows_candidates_in_its_logged_session_context(run):
     data_dir, _ = run
     data = load(data_dir)
     model = synth.ResponseModel.load(os.path.join(data_dir, synth.MODEL_FILE))
-    table = np.asarray(kuairand_table2._truth_tables(model, data, chunk=7))
+    table = np.asarray(table2.truth_tables(model, data, chunk=7))
     n_test = data.n_rows - data.n_train
     assert table.shape == (n_test, data.n_candidates, 7)
     rows = np.asarray(data.log_row[data.n_train :])

@@ -18,7 +18,7 @@ pytestmark = pytest.mark.slow
 
 @pytest.fixture(scope="module")
 def smoke_rollout():
-    env = envs.make("walker2d", physics="brax", episode_length=30)
+    env = envs.make("walker2d", physics="brax", engine="mjx", episode_length=30)
     wrapped = EpisodeWrapper(env, env.episode_length)
     batch, steps = 8, 200
 
@@ -107,7 +107,7 @@ def test_conformance_with_mo_gymnasium_walker2d_v5():
     ref_term = np.array([r[2] for r in reference], dtype=np.float32)
     assert ref_term.sum() >= 20  # states near and past the healthy limits are covered
 
-    env = envs.make("walker2d", physics="gymnasium-v5")
+    env = envs.make("walker2d", physics="gymnasium-v5", engine="mjx")
 
     @jax.jit
     @jax.vmap

@@ -1,44 +1,66 @@
 """wcac_jax: smoothed weighted-Chebyshev deep actor-critic for multi-objective RL in JAX.
 
 The public API: scalarizations (`smooth_wc`, `wc`, `linear` and their weights, by name in
-`scalarize.SCALARIZATIONS`), the two updates by name (`algos`: the paper's,
-`PaperConfig`, and the practical one, `PracticalConfig`), one way to build and run
-either (`make_train`, `make_trainer`, `make_evaluate`), what both share (`runtime`),
-named presets and per-environment defaults (`presets`), and the building blocks as
-modules (`networks`, `critic`, `actor`, `utopia`, `envs`).
+`scalarize.SCALARIZATIONS`), the updates by name (`algos`: the paper's, `PaperConfig`, the
+practical one, `PracticalConfig`, and the preference-conditioned one), one way to build
+and run each (`make_train`, `make_trainer`, `make_evaluate`), what they share (`runtime`),
+named presets and per-environment defaults (`presets`), a whole sweep with the library's
+defaults (`default_sweep`, `run_sweep`, `load_sweep`), the front's metrics (`pareto`) and
+the building blocks as modules (`networks`, `critic`, `actor`, `utopia`, `envs`).
+
+Every name loads on first use (PEP 562), so that `import wcac_jax.pareto` (numpy only)
+loads neither JAX nor a physics engine.
 """
 
-# envs first: it imports MJX (which Brax's modules import) without its optional-backend
-# notices
-from wcac_jax import envs  # isort: skip
-
-from wcac_jax import actor, algos, critic, networks, presets, runtime, scalarize, utopia
-from wcac_jax.algos import PaperConfig, PracticalConfig, make_evaluate, make_train, make_trainer
-from wcac_jax.runtime import Trainer, UpdateState
-from wcac_jax.scalarize import linear, smooth_wc, smooth_wc_weights, wc, wc_weights
+import importlib
 
 __version__ = "0.1.0"
 
-__all__ = [
-    "PaperConfig",
-    "PracticalConfig",
-    "Trainer",
-    "UpdateState",
+# name -> the module that defines it
+_NAMES = {
+    "PaperConfig": "wcac_jax.algos",
+    "PracticalConfig": "wcac_jax.algos",
+    "ConditionedConfig": "wcac_jax.algos",
+    "make_evaluate": "wcac_jax.algos",
+    "make_train": "wcac_jax.algos",
+    "make_trainer": "wcac_jax.algos",
+    "Trainer": "wcac_jax.runtime",
+    "UpdateState": "wcac_jax.runtime",
+    "linear": "wcac_jax.scalarize",
+    "smooth_wc": "wcac_jax.scalarize",
+    "smooth_wc_weights": "wcac_jax.scalarize",
+    "wc": "wcac_jax.scalarize",
+    "wc_weights": "wcac_jax.scalarize",
+    "SweepConfig": "wcac_jax.sweep",
+    "default_sweep": "wcac_jax.sweep",
+    "load_sweep": "wcac_jax.sweep",
+    "run_sweep": "wcac_jax.sweep",
+}
+_MODULES = (
     "actor",
     "algos",
     "critic",
     "envs",
-    "linear",
-    "make_evaluate",
-    "make_train",
-    "make_trainer",
     "networks",
+    "pareto",
     "presets",
     "runtime",
     "scalarize",
-    "smooth_wc",
-    "smooth_wc_weights",
+    "sweep",
     "utopia",
-    "wc",
-    "wc_weights",
-]
+)
+
+
+def __getattr__(name: str):
+    if name in _MODULES:
+        return importlib.import_module(f"wcac_jax.{name}")
+    if name in _NAMES:
+        return getattr(importlib.import_module(_NAMES[name]), name)
+    raise AttributeError(f"module 'wcac_jax' has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted({*globals(), *_NAMES, *_MODULES})
+
+
+__all__ = sorted({*_NAMES, *_MODULES})

@@ -96,12 +96,15 @@ def one_of(choices: Sequence[str] | Callable[[], Sequence[str]]) -> Check:
     """A check that the value is one of `choices` (or of what a callable returns when
     checked, for a registry that may grow after import)."""
 
+    def valid() -> tuple[str, ...]:
+        return tuple(choices() if callable(choices) else choices)
+
     def check(name: str, value):
-        valid = tuple(choices() if callable(choices) else choices)
-        if value not in valid:
-            raise ValueError(f"{name} must be one of {', '.join(valid)}; got {value!r}")
+        if value not in valid():
+            raise ValueError(f"{name} must be one of {', '.join(valid())}; got {value!r}")
         return value
 
+    check.choices = valid  # what is valid now (the command line's help lists it)
     return check
 
 

@@ -124,10 +124,11 @@ def _td_step_one(
     terminal: chex.Array,
     gamma: float,
     learning_rate: float,
+    weight: chex.Array | None = None,
 ):
     """One semi-gradient TD(0) step for ONE objective on a batch of `N` transitions.
 
-    Args: obs, next_obs `[N, obs]`; reward, terminal `[N]`.
+    Args: obs, next_obs `[N, obs]`; reward, terminal `[N]`; weight `[N]` or `None`.
     Returns: (new trainable parameters, TD errors `[N]`).
     """
     chex.assert_rank([obs, next_obs, reward, terminal], [2, 2, 1, 1])
@@ -138,7 +139,8 @@ def _td_step_one(
 
     v, vjp = jax.vjp(value_fn, params.trainable)
     delta = td_error(v, reward, v_next, terminal, gamma)
-    (grad,) = vjp(delta / delta.shape[0])  # mean_N(delta * grad V(s))
+    weighted = delta if weight is None else weight * delta
+    (grad,) = vjp(weighted / delta.shape[0])  # mean_N(weight * delta * grad V(s))
     new = jax.tree.map(lambda w, g: w - learning_rate * g, params.trainable, grad)
     return new, delta
 
@@ -154,8 +156,10 @@ def update(
     gamma: float,
     learning_rate: float,
     radius: float,
+    weight: chex.Array | None = None,
 ) -> tuple[CriticState, chex.Array]:
-    """Step `k` of Algorithm 2 for all `m` critics: TD step, projection, averaging.
+    """Step `k` of Algorithm 2 for all `m` critics: TD step, projection, averaging
+    (`W_i <- Proj_B(W_i - beta mean_N(weight delta_i grad V_i(s)))`, then the average).
 
     Args:
       apply: the value network's `apply`.
@@ -168,14 +172,16 @@ def update(
       gamma: discount.
       learning_rate: `beta`.
       radius: projection radius `B` (`inf` for none).
+      weight: `[N]` per-transition weights (e.g. importance weights of an off-policy
+        batch); `None`: 1 each, Algorithm 2 itself.
 
     Returns:
       The new state and the TD errors, `[N, m]`.
     """
     chex.assert_rank(reward, 2)
     chex.assert_shape(terminal, (reward.shape[0],))
-    new, delta = jax.vmap(_td_step_one, in_axes=(None, 0, None, 1, None, None, None, None))(
-        apply, state.params, obs, reward, next_obs, terminal, gamma, learning_rate
+    new, delta = jax.vmap(_td_step_one, in_axes=(None, 0, None, 1, None, None, None, None, None))(
+        apply, state.params, obs, reward, next_obs, terminal, gamma, learning_rate, weight
     )
     new = jax.vmap(project_to_ball, in_axes=(0, 0, None))(new, state.center, radius)
     k = state.step.astype(jnp.float32)

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from typing import Any, NamedTuple
+from typing import Any, NamedTuple, Protocol
 
 import chex
 import flax.linen as nn
@@ -70,6 +70,18 @@ class Network(NamedTuple):
     init: Callable[[chex.PRNGKey], NetParams]
     apply: Callable[[NetParams, chex.Array], chex.Array]
     layers: Callable[[NetParams], tuple[Layer, ...]] | None = None
+
+
+class NetworkFactory(Protocol):
+    """Builds an update's networks (the `network_factory` of `algos.make_train`, as
+    Brax's `network_factory`): `factory(in_size, out_size, role=...) -> Network`.
+
+    `role` is `"actor"` (the policy's head: `out_size` its mean's or its logits' size) or
+    `"critic"` (the values: `out_size` 1 for each of the paper's `m` critics, `m` for a
+    vector critic); `in_size` is the preprocessed observation's size.
+    """
+
+    def __call__(self, in_size: int, out_size: int, *, role: str) -> Network: ...
 
 
 def paper_network(in_dim: int, out_dim: int, width: int, depth: int) -> Network:

@@ -3,9 +3,10 @@
 `nondominated` (the mask of the front), `hypervolume` (exact: a sweep line for `m = 2`,
 a recursive slicing algorithm (HSO) over the non-dominated set for `m >= 3`),
 `outside_reference` (the points a reference point leaves out of the hypervolume),
-`expected_utility` (EUM), `sparsity`, `cardinality`, `simplex_lattice` (a uniform
-preference grid of any size) and `preference_lattice` (the sweep's `--n-prefs` grid, a
-full, even lattice for three objectives and more). All points are maximised: `a` dominates `b` when
+`expected_utility` (EUM), `sparsity`, `cardinality`, `rank_correlation` (Spearman's, of a
+preference against a return), `simplex_lattice` (a uniform preference grid of any size)
+and `preference_lattice` (the sweep's `--n-prefs` grid, a full, even lattice for three
+objectives and more). All points are maximised: `a` dominates `b` when
 `a >= b` everywhere and `a > b` somewhere. NaN inputs and mismatched shapes raise
 `ValueError`.
 """
@@ -177,6 +178,34 @@ def cardinality(points) -> int:
     """Number of distinct non-dominated points."""
     pts = _points(points)
     return int(nondominated(pts).sum()) if pts.shape[0] else 0
+
+
+def ranks(values) -> np.ndarray:
+    """`[n]` the rank of each of `values` `[n]` from 0, ties taking their mean rank."""
+    v = np.asarray(values, dtype=np.float64)
+    r = np.empty(v.shape[0])
+    r[np.argsort(v, kind="stable")] = np.arange(v.shape[0], dtype=np.float64)
+    for value in np.unique(v):
+        tied = v == value
+        r[tied] = r[tied].mean()
+    return r
+
+
+def rank_correlation(x, y) -> float:
+    """Spearman's rank correlation of `x` and `y` (`[n]` each): Pearson's correlation of
+    their `ranks`. NaN where either is constant (there is no order to correlate).
+
+    >>> rank_correlation([1.0, 0.5, 0.0], [3.2, 2.0, 2.5])
+    0.5
+    """
+    rx, ry = ranks(x), ranks(y)
+    if rx.shape != ry.shape:
+        raise ValueError(f"x and y differ in length: {rx.shape[0]} and {ry.shape[0]}")
+    dx, dy = rx - rx.mean(), ry - ry.mean()
+    norm = float(np.sqrt(np.sum(dx * dx) * np.sum(dy * dy)))
+    if norm == 0.0:
+        return float("nan")
+    return float(np.sum(dx * dy) / norm)
 
 
 def simplex_lattice(m: int, n: int) -> np.ndarray:

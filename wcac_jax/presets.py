@@ -8,12 +8,16 @@ Presets, by name (`--preset NAME` on the command line):
   (`PAPER_PREFS`), on any environment;
 - `practical`: the same smoothed weighted-Chebyshev direction optimised as on-policy deep
   RL is in practice (`PracticalConfig()`: GAE, clipped ratio, epochs of minibatches,
-  Adam, observation and return normalisation, a utopia point the sweep estimates).
+  Adam, observation and return normalisation, a utopia point the sweep estimates);
+- `conditioned`: ONE preference-conditioned network for the whole front
+  (`ConditionedConfig()`), `CONDITIONED_TOTAL_STEPS` env steps in all, evaluated at
+  `CONDITIONED_EVAL_PREFS` preferences.
 
 Each registered environment has a default (`ENV_DEFAULTS`): the configuration and budget
 that give its good result when nothing else is asked for. A default is a `Defaults`; its
 `preset` names where its configuration comes from (a named preset, or the environment's
-own tuned settings, e.g. the bandit's exploration run).
+own tuned settings, e.g. the bandit's exploration run). `wcac_jax.sweep.default_sweep`
+resolves these into the sweep that runs.
 """
 
 from __future__ import annotations
@@ -21,7 +25,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from wcac_jax.algos import ALGOS, AnyConfig, ConditionedConfig, PaperConfig, PracticalConfig
+from wcac_jax.algos import ALGOS, ConditionedConfig, PaperConfig, PracticalConfig, UpdateConfig
 
 # The paper's nine preferences (its Fig. 3): uneven steps, finer near the ends.
 PAPER_PREFS = (
@@ -36,20 +40,25 @@ PAPER_PREFS = (
     (0.0, 1.0),
 )
 DEFAULT_N_PREFS = 9  # evenly spaced on the simplex, unless a preset or flag says otherwise
+# the conditioned update (one network for the whole front): env steps of the whole
+# training, and the evenly spread preferences it is evaluated at
+CONDITIONED_TOTAL_STEPS = 3_000_000
+CONDITIONED_EVAL_PREFS = 33
 
 
 # a preset per registered update (`wcac_jax.algos`), its configuration's defaults
 PRESETS = tuple(ALGOS)
 
 
-def preset(name: str) -> AnyConfig:
-    """The named configuration (`paper` or `practical`): the update's own defaults.
+def preset(name: str) -> UpdateConfig:
+    """The named configuration (`paper`, `practical`, `conditioned`): the update's own
+    defaults.
 
     Raises:
       ValueError: naming the bad value and the valid ones.
     """
-    if name not in PRESETS:
-        raise ValueError(f"unknown preset {name!r}; valid: {', '.join(PRESETS)}")
+    if name not in ALGOS:  # every registered update, one registered later too
+        raise ValueError(f"unknown preset {name!r}; valid: {', '.join(ALGOS)}")
     return ALGOS[name].config()
 
 
@@ -73,7 +82,7 @@ class Defaults:
     """
 
     preset: str
-    config: AnyConfig
+    config: UpdateConfig
     steps_per_pref: int
     note: str
     env_options: tuple[tuple[str, str], ...] = ()

@@ -18,6 +18,10 @@ unclipped sample.
 
 from __future__ import annotations
 
+# the environments first: they import MJX (which Brax's modules import) without its
+# optional-backend notices
+from wcac_jax.envs.wrappers import EpisodeWrapper  # isort: skip
+
 from collections.abc import Callable
 from typing import Any, NamedTuple, Protocol
 
@@ -31,12 +35,12 @@ from brax.training.acme import running_statistics, specs
 from flax import struct
 
 from wcac_jax import networks, scalarize
-from wcac_jax.envs.wrappers import EpisodeWrapper
 from wcac_jax.types import EpisodeStats, Transition, typed_key
 
 # scalarizations selectable by a traced index (the `direction` argument of `step`/`run`):
-# every registered one, in registration order (`scalarize.register`)
-TRACED_DIRECTIONS = tuple(scalarize.SCALARIZATIONS)
+# every registered one, in registration order (`scalarize.register`), read when a program
+# is built, so that one registered after import is selectable too
+TRACED_DIRECTIONS = scalarize.NAMES
 
 
 class UpdateState(Protocol):

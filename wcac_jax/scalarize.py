@@ -17,6 +17,7 @@ The *objective weights* `w(J | p)` of a scalarization `S` are defined by
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import NamedTuple, Protocol
 
 import chex
@@ -198,14 +199,31 @@ def weights_by_autodiff(value: _ValueFn) -> _ValueFn:
 
 
 def register(name: str, value: _ValueFn, weights: _ValueFn | None = None) -> None:
-    """Adds a scalarization under `name` (`weights` default: `weights_by_autodiff`).
-    Registered names are valid `scalarization` values of both updates and indices of the
-    traced direction (`wcac_jax.runtime.TRACED_DIRECTIONS`), in registration order."""
+    """Adds a scalarization under `name` (`weights` default: `weights_by_autodiff`), at
+    import or later, from a user's own code. Registered names are valid `scalarization`
+    values of every update and indices of the traced direction (`NAMES`), in
+    registration order."""
     SCALARIZATIONS[name] = Scalarization(value, weights or weights_by_autodiff(value))
+
+
+class _Names(Sequence):
+    """The registered names in registration order, read from `SCALARIZATIONS` whenever
+    asked: a name registered after import is in it."""
+
+    def __getitem__(self, index):
+        return tuple(SCALARIZATIONS)[index]
+
+    def __len__(self) -> int:
+        return len(SCALARIZATIONS)
+
+    def __repr__(self) -> str:
+        return repr(tuple(SCALARIZATIONS))
 
 
 # name -> scalarization; the order is that of the traced direction index
 SCALARIZATIONS: dict[str, Scalarization] = {}
+# every registered name, in registration order: a traced direction is an index into it
+NAMES = _Names()
 register("smooth_wc", smooth_wc, smooth_wc_weights)
 register("wc", lambda v, p, z, mu: wc(v, p, z), lambda v, p, z, mu: wc_weights(v, p, z))
 register("linear", lambda v, p, z, mu: linear(v, p), lambda v, p, z, mu: linear_weights(v, p))

@@ -10,8 +10,10 @@ trains every preference together, so it can estimate `z` from what all of them r
   `z_i = best_i + margin * max(spread_i, min_spread)`
 
 `max_p` and `min_p` are collectives over the vmapped preference axis (`jax.lax.pmax` /
-`pmin` on the axis named `PREF_AXIS`), so the caller must run under
-`jax.vmap(..., axis_name=PREF_AXIS)` (as `sweep.run_sweep` does); where the preferences
+`pmin` on the axis named `PREF_AXIS`) when the caller runs under
+`jax.vmap(..., axis_name=PREF_AXIS)` (as `sweep.run_sweep` does); without that axis (a
+plain `jax.vmap`, or one preference alone) each preference estimates its own point from
+its own `Jhat`, as a sweep of that one preference would; where the preferences
 are also split over devices (`jax.shard_map` on a mesh axis named `DEVICE_AXIS`, as the
 sweep does), the collectives span that axis too, i.e. every preference of the sweep. Max
 and min ignore duplicates, so the padding the sweep adds (copies of the last preference) changes
@@ -65,16 +67,19 @@ def estimate(
       margin: how far above the best value `z` lies, relative to the spread.
       min_spread: a floor on the spread, so that `z` stays above `best` when all
         preferences agree (e.g. a sweep of one preference).
-      axis_name: the vmapped preference axis.
+      axis_name: the vmapped preference axis (unbound: this preference alone).
 
     Returns:
       `(state, z)`: the new state and the utopia point `z` (`[m]`), identical on every
       preference.
     """
     chex.assert_rank(j_hat, 1)
-    axes = (DEVICE_AXIS, axis_name) if _is_bound(DEVICE_AXIS) else axis_name
-    hi = jax.lax.pmax(j_hat, axes)
-    lo = jax.lax.pmin(j_hat, axes)
+    if _is_bound(axis_name):
+        axes = (DEVICE_AXIS, axis_name) if _is_bound(DEVICE_AXIS) else axis_name
+        hi = jax.lax.pmax(j_hat, axes)
+        lo = jax.lax.pmin(j_hat, axes)
+    else:  # no named preference axis (a plain `jax.vmap`, or none): this preference alone
+        hi = lo = j_hat
     best = jnp.maximum(state.best, hi)
     return UtopiaState(best=best), point(best, lo, margin=margin, min_spread=min_spread)
 

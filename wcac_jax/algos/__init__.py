@@ -1,10 +1,14 @@
-"""The updates, by name: `paper` (Algorithms 1 + 2, `algos.paper`) and `practical` (the
-same smoothed weighted-Chebyshev direction with a clipped surrogate, `algos.practical`).
+"""The updates, by name: `paper` (Algorithms 1 + 2, `algos.paper`), `practical` (the same
+smoothed weighted-Chebyshev direction with a clipped surrogate, `algos.practical`) and
+`conditioned` (one preference-conditioned network for the whole front,
+`algos.conditioned`).
 
 `ALGOS` maps each name to its configuration class and `make_trainer`; everything else
 dispatches on a configuration's class through it (`kind`), and every update returns
 the same `runtime.Trainer`, so sweeps, evaluation and checkpoints are shared. A new
-update is a module with a `Config` subclass and a `make_trainer`, and one line here.
+update is a module with a `Config` subclass and a `make_trainer` that meet the contract
+(`algos.contract`: the fields and metrics the rest of the library reads), and one
+`register` line here (or in the user's own code).
 """
 
 from __future__ import annotations
@@ -12,9 +16,10 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import NamedTuple
 
-from wcac_jax import runtime
-from wcac_jax.algos import conditioned, paper, practical
+from wcac_jax import networks, runtime
+from wcac_jax.algos import conditioned, contract, paper, practical
 from wcac_jax.algos.conditioned import ConditionedConfig
+from wcac_jax.algos.contract import UpdateConfig
 from wcac_jax.algos.paper import PaperConfig
 from wcac_jax.algos.practical import PracticalConfig
 
@@ -29,17 +34,30 @@ class Algo(NamedTuple):
     make_evaluate: Callable | None = None
 
 
-ALGOS: dict[str, Algo] = {
-    "paper": Algo(PaperConfig, paper.make_trainer),
-    "practical": Algo(PracticalConfig, practical.make_trainer),
-    "conditioned": Algo(
-        ConditionedConfig, conditioned.make_trainer, conditioned.make_evaluate_centre
-    ),
-}
+ALGOS: dict[str, Algo] = {}
+
+
+def register(
+    name: str, config: type, make_trainer: Callable, make_evaluate: Callable | None = None
+) -> None:
+    """Registers an update under `name` (a `--preset` and a configuration `kind`), after
+    checking its configuration class against the contract (`contract.check_config_class`;
+    its metrics are checked by a sweep before it compiles).
+
+    Raises:
+      contract.ContractError: naming what the configuration lacks.
+    """
+    contract.check_config_class(name, config)
+    ALGOS[name] = Algo(config, make_trainer, make_evaluate)
+
+
+register("paper", PaperConfig, paper.make_trainer)
+register("practical", PracticalConfig, practical.make_trainer)
+register(
+    "conditioned", ConditionedConfig, conditioned.make_trainer, conditioned.make_evaluate_centre
+)
 # kinds that older runs recorded, by their name now
 LEGACY_KINDS = {"ppo": "practical"}
-
-AnyConfig = PaperConfig | PracticalConfig | ConditionedConfig
 
 
 def kind(config) -> str:
@@ -66,9 +84,25 @@ def config_class(name: str) -> type:
     return ALGOS[name].config
 
 
-def make_trainer(config, env) -> runtime.Trainer:
-    """The pure `init`/`run`/`step` of `config`'s update for `env`."""
-    return ALGOS[kind(config)].make_trainer(config, env)
+def make_trainer(
+    config, env, network_factory: networks.NetworkFactory | None = None
+) -> runtime.Trainer:
+    """The pure `init`/`run`/`step` of `config`'s update for `env`; `network_factory`
+    (`networks.NetworkFactory`) builds its actor and critics in place of the update's
+    own networks (`None`: the update's, as its configuration says).
+
+    Raises:
+      contract.ContractError: the update's `make_trainer` returned no `runtime.Trainer`.
+    """
+    name = kind(config)
+    extra = {} if network_factory is None else {"network_factory": network_factory}
+    trainer = ALGOS[name].make_trainer(config, env, **extra)
+    if not isinstance(trainer, runtime.Trainer):
+        raise contract.ContractError(
+            f"update {name!r}: make_trainer returned a {type(trainer).__name__}, not a "
+            "runtime.Trainer (build it with runtime.assemble)"
+        )
+    return trainer
 
 
 def make_evaluate(
@@ -80,19 +114,24 @@ def make_evaluate(
     return evaluate(config, env, num_episodes, trainer or make_trainer(config, env))
 
 
-def make_train(config, env) -> Callable:
+def make_train(config, env, network_factory: networks.NetworkFactory | None = None) -> Callable:
     """Returns `train(key, pref, direction=None) -> (state, metrics)`: the whole run of
-    `config.num_iterations` iterations, one `lax.scan`.
+    `config.num_iterations` iterations, one `lax.scan` (`network_factory`: as
+    `make_trainer`'s).
 
     `key` (a PRNG key) and `pref` (`[m]`) are traced, so a sweep is
     `jax.jit(jax.vmap(train))(keys [P], prefs [P, m])`; `metrics` leaves are `[T, ...]`
-    (`[P, T, ...]` under the vmap). The optional `direction` is a traced integer index
-    into `runtime.TRACED_DIRECTIONS` (`0`: smooth_wc, `1`: wc, `2`: linear, then any
-    scalarization registered after them) that overrides `config.scalarization`, so
-    scalarizations can be compared inside one compiled program
-    (`jax.vmap(train)(keys, prefs, directions)`).
+    (`[P, T, ...]` under the vmap). With the practical update's estimated utopia point
+    (`wcac_jax.utopia`), a plain `jax.vmap` lets each preference estimate its own, as a
+    sweep of that preference alone would; `jax.vmap(train, axis_name=utopia.PREF_AXIS)`
+    shares one across the batch, as `run_sweep` does.
+
+    The optional `direction` is a traced integer index into `runtime.TRACED_DIRECTIONS`
+    (`0`: smooth_wc, `1`: wc, `2`: linear, then any scalarization registered after them)
+    that overrides `config.scalarization`, so scalarizations can be compared inside one
+    compiled program (`jax.vmap(train)(keys, prefs, directions)`).
     """
-    trainer = make_trainer(config, env)
+    trainer = make_trainer(config, env, network_factory)
 
     def train(key, pref, direction=None):
         return trainer.run(trainer.init(key, pref), pref, config.num_iterations, direction)
@@ -116,15 +155,16 @@ def from_dict(d: dict):
 __all__ = [
     "ALGOS",
     "Algo",
-    "AnyConfig",
     "ConditionedConfig",
     "PaperConfig",
     "PracticalConfig",
+    "UpdateConfig",
     "config_class",
     "from_dict",
     "kind",
     "make_evaluate",
     "make_train",
     "make_trainer",
+    "register",
     "to_dict",
 ]

@@ -20,7 +20,7 @@ none. Per iteration, as the practical update does for one preference
    advantage `sum_i (w_i p_i + rho) sigma_i A_i` (`scalarized_advantage`): the practical
    update's formula for that environment's own preference;
 4. epochs of minibatches on the clipped surrogate (per-minibatch normalised advantages)
-   plus the critic's regression (`practical.minibatch_loss`, `practical.minibatch_epochs`).
+   plus the critic's regression (`losses.ppo_loss`, `losses.minibatch_epochs`).
 
 The state is the practical update's (`PracticalState`), the `Trainer` the shared one:
 its `pref` argument is ignored (each environment draws its own), so a sweep trains it as
@@ -56,9 +56,7 @@ class ConditionedConfig(PracticalConfig):
     # (a fixed small noise on the concave bandit, where a stochastic policy's front is the
     # convex hull of the deterministic one)
     learn_log_std: bool = field(True, "whether the policy's log-std is trained")
-    pref_alpha: float = field(
-        1.0, "concentration of the Dirichlet each episode's preference is drawn from", positive
-    )
+    pref_alpha: float = field(1.0, "Dirichlet concentration of the preferences drawn", positive)
     conditioning: str = field(
         "concat",
         "how the networks take the preference: 'concat' (appended to the observation) or "
@@ -170,7 +168,6 @@ def _iteration(parts: runtime.UpdateParts, state: PracticalState, pref, directio
     config, m = parts.config, parts.m
     raw_size = parts.obs_size - m
     key_rollout, key_epochs = runtime.iteration_keys(state)
-    finished_before = jnp.sum(state.episodes.finished)
     start_before = state.env_state.info["first_obs"]  # [N, obs + m]
     (env_state, episodes), batch = runtime.rollout(
         parts.env_step,
@@ -181,9 +178,8 @@ def _iteration(parts: runtime.UpdateParts, state: PracticalState, pref, directio
         key_rollout,
         config.rollout_steps,
     )  # batch leaves [L, N, ...]
-    discounted_return, return_stats, sigma, obs_in, adv, target, _ = practical._advantages(
-        parts, state, batch, env_state
-    )
+    estimates = practical._advantages(parts, state, batch, env_state)
+    discounted_return, return_stats, sigma, obs_in, adv, target, _ = estimates
     starts = jax.vmap(episode_start_obs, in_axes=(0, 1, 1), out_axes=1)(
         start_before, batch.obs, batch.done
     )  # [L, N, obs + m]
@@ -205,9 +201,7 @@ def _iteration(parts: runtime.UpdateParts, state: PracticalState, pref, directio
         augment=config.augment,
     )
     scalar_adv, weights = jax.vmap(jax.vmap(per_sample))(adv, j_hat, prefs)  # [L, N], [L, N, m]
-    params, opt_state, info, dist = practical._optimise(
-        parts, state, batch, obs_in, scalar_adv, target, key_epochs
-    )
+    optimised = practical._optimise(parts, state, batch, obs_in, scalar_adv, target, key_epochs)
     obs_seen = batch.obs[..., :raw_size].reshape((config.sample_count, raw_size))
     metrics = {
         "train/j_hat": jnp.mean(j_hat, axis=(0, 1)),
@@ -220,21 +214,15 @@ def _iteration(parts: runtime.UpdateParts, state: PracticalState, pref, directio
         ),
         "train/utopia": z,
     }
-    return practical.finish_iteration(
-        parts,
-        state,
-        metrics,
-        (params, opt_state, info, dist),
-        obs_seen,
-        finished_before,
-        adv,
-        sigma,
+    renewed = state.replace(
         return_stats=return_stats,
         discounted_return=discounted_return,
         utopia=utopia_state,
         env_state=env_state,
         episodes=episodes,
+        obs_stats=runtime.update_obs_stats(config.normalize_obs, state.obs_stats, obs_seen),
     )
+    return practical.finish_iteration(parts, state, renewed, estimates, optimised, metrics)
 
 
 def make_preprocess(config: PracticalConfig, raw_size: int):
@@ -249,30 +237,40 @@ def make_preprocess(config: PracticalConfig, raw_size: int):
     return preprocess
 
 
-def conditioned_network(config: ConditionedConfig, obs_size: int, m: int):
-    """`(out, out_scale) -> Network` on `[obs + m]` inputs, as `config.conditioning` says:
-    `networks.tanh_mlp` on the concatenation, or `networks.film_tanh_mlp` conditioned on
-    its last `m` entries (the preference)."""
-    if config.conditioning == "film":
-        return lambda out, scale: networks.film_tanh_mlp(
-            obs_size, out, config.width, config.depth, scale, m
-        )
-    return lambda out, scale: networks.tanh_mlp(obs_size, out, config.width, config.depth, scale)
+def conditioned_networks(config: ConditionedConfig, m: int) -> networks.NetworkFactory:
+    """The conditioned update's networks on `[obs + m]` inputs, as `config.conditioning`
+    says: the practical update's tanh MLPs on the concatenation, or
+    `networks.film_tanh_mlp` conditioned on the inputs' last `m` entries (the
+    preference); the actor's last layer at scale 0.01, the critic's at 1."""
+    if config.conditioning != "film":
+        return practical.default_networks(config)
+
+    def factory(in_size: int, out_size: int, *, role: str) -> networks.Network:
+        scale = 0.01 if role == "actor" else 1.0
+        return networks.film_tanh_mlp(in_size, out_size, config.width, config.depth, scale, m)
+
+    return factory
 
 
-def make_trainer(config: ConditionedConfig, env) -> runtime.Trainer:
+def make_trainer(
+    config: ConditionedConfig, env, network_factory: networks.NetworkFactory | None = None
+) -> runtime.Trainer:
     """Builds the pure `init`/`run`/`step` of the conditioned update for `env` (see the
-    module docstring); `pref` arguments are ignored."""
+    module docstring); `pref` arguments are ignored. `network_factory` builds the actor
+    and the vector critic, each taking `(s, p)` (default: the practical update's)."""
     m, raw_size = int(env.num_objectives), int(env.observation_size)
     cenv = PreferenceConditioned(env, dirichlet_preference(m, config.pref_alpha))
     obs_size = raw_size + m
     j_ub = jnp.asarray(runtime.resolve_j_ub(config, env), jnp.float32)
     venv = runtime.vectorize(cenv)
-    net = conditioned_network(config, obs_size, m)
+    factory = network_factory or conditioned_networks(config, m)
     policy = runtime.make_policy(
-        cenv, lambda out: net(out, 0.01), config.log_std_init, config.learn_log_std
+        cenv,
+        lambda out: factory(obs_size, out, role="actor"),
+        config.log_std_init,
+        config.learn_log_std,
     )
-    value_net = net(m, 1.0)
+    value_net = factory(obs_size, m, role="critic")
     preprocess = make_preprocess(config, raw_size)
     parts = runtime.UpdateParts(
         config=config,

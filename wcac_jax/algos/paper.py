@@ -84,8 +84,8 @@ class PaperConfig(Config):
     )
     scalarization: str = field(
         "smooth_wc",
-        "the actor's direction: a registered scalarization (smooth_wc, the method; wc; "
-        "linear) or mgda (MGDA's common-descent direction, a baseline)",
+        "the actor's direction, a registered scalarization (smooth_wc is the method) or "
+        "mgda (MGDA's common-descent direction, a baseline)",
         one_of(_scalarization_names),
     )
     network: str = field(
@@ -156,14 +156,33 @@ def network_input_size(config: PaperConfig, obs_size: int) -> int:
     return obs_size + 1 if config.network == "paper" else obs_size
 
 
-def make_policy(config: PaperConfig, env) -> networks.Policy:
-    """The actor for `env` (`runtime.make_policy`) on `config.network`."""
+def default_networks(config: PaperConfig) -> networks.NetworkFactory:
+    """The networks of `config`: `config.network` (the paper's, or an MLP) of
+    `config.width` and `config.depth`, with a policy head for the actor."""
+
+    def factory(in_size: int, out_size: int, *, role: str) -> networks.Network:
+        return networks.make_network(
+            config.network,
+            in_size,
+            out_size,
+            config.width,
+            config.depth,
+            policy_head=role == "actor",
+        )
+
+    return factory
+
+
+def make_policy(
+    config: PaperConfig, env, network_factory: networks.NetworkFactory | None = None
+) -> networks.Policy:
+    """The actor for `env` (`runtime.make_policy`) on `network_factory`'s network
+    (default: `config.network`, `default_networks`)."""
     in_size = network_input_size(config, int(env.observation_size))
+    factory = network_factory or default_networks(config)
     return runtime.make_policy(
         env,
-        lambda out: networks.make_network(
-            config.network, in_size, out, config.width, config.depth, policy_head=True
-        ),
+        lambda out: factory(in_size, out, role="actor"),
         config.log_std_init,
         config.learn_log_std,
     )
@@ -303,21 +322,24 @@ def _iteration(parts: runtime.UpdateParts, state: PaperState, pref: chex.Array, 
     return new_state, metrics
 
 
-def make_trainer(config: PaperConfig, env) -> runtime.Trainer:
+def make_trainer(
+    config: PaperConfig, env, network_factory: networks.NetworkFactory | None = None
+) -> runtime.Trainer:
     """Builds the pure `init`/`run`/`step` of Algorithm 1 + 2 for `env`.
 
     Args:
       config: static sizes and hyperparameters.
       env: a single unbatched Brax-style environment with vector rewards exposing
         `num_objectives`, `default_j_ub` and `episode_length` (see `wcac_jax.envs`).
+      network_factory: builds the actor and each critic (`networks.NetworkFactory`;
+        default `default_networks(config)`).
     """
     obs_size = int(env.observation_size)
     j_ub = jnp.asarray(runtime.resolve_j_ub(config, env), jnp.float32)
     venv = runtime.vectorize(env)
-    policy = make_policy(config, env)
-    value_net = networks.make_network(
-        config.network, network_input_size(config, obs_size), 1, config.width, config.depth
-    )
+    factory = network_factory or default_networks(config)
+    policy = make_policy(config, env, factory)
+    value_net = factory(network_input_size(config, obs_size), 1, role="critic")
     preprocess = runtime.make_preprocess(
         config.normalize_obs, bias_feature=config.network == "paper"
     )

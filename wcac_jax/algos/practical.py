@@ -9,7 +9,7 @@ policy (`M = N * L` transitions), and then:
    (`sigma_i`, clipped to `+-reward_clip`); observations are normalised by running
    mean/std (clipped to `+-obs_clip`);
 2. a vector critic (one network, `m` outputs) gives per-objective GAE advantages
-   (`gae`): falls do not bootstrap, time-limit truncation bootstraps from the true next
+   (`losses.gae`): falls do not bootstrap, time-limit truncation bootstraps from the true next
    observation (`info["final_obs"]`), and the recursion stops at every episode end;
 3. `Jhat_i = sigma_i * mean_{s0} V_i(s0)` (discounted, in the objectives' own units), the
    utopia point `z` (fixed, or estimated by the whole sweep, see `wcac_jax.utopia`), and
@@ -18,10 +18,12 @@ policy (`M = N * L` transitions), and then:
    `-sum_i w_i p_i gradJ_i` of `actor.direction`, with each `A_i` back in its
    objective's units (with `augment = rho > 0`, `w_i p_i + rho` in place of `w_i p_i`);
 4. `num_epochs` passes over `num_minibatches` shuffled minibatches
-   (`minibatch_epochs`), one Adam step with global gradient-norm clipping per
-   minibatch on `minibatch_loss`: the clipped-ratio surrogate on the (per-minibatch
-   normalised) scalarized advantage (`clipped_surrogate`), plus the critic's regression
-   on its GAE targets.
+   (`losses.minibatch_epochs`), one Adam step with global gradient-norm clipping per
+   minibatch on `losses.ppo_loss`: the clipped-ratio surrogate on the (per-minibatch
+   normalised) scalarized advantage, plus the critic's regression on its GAE targets.
+
+`_iteration` reads one iteration top to bottom; the generic PPO pieces are
+`wcac_jax.losses`'.
 
 `make_trainer` returns the same `runtime.Trainer` as the paper's update (through
 `runtime.assemble`, which adds the shared `run` and `mean_action`), so sweeps,
@@ -32,6 +34,7 @@ environment steps. Iteration `t` draws its randomness from `fold_in(state.key, t
 from __future__ import annotations
 
 import functools
+from typing import Any, NamedTuple
 
 import chex
 import jax
@@ -39,7 +42,7 @@ import jax.numpy as jnp
 import optax
 from brax.training.acme import running_statistics, specs
 
-from wcac_jax import networks, runtime, scalarize, utopia
+from wcac_jax import losses, networks, runtime, scalarize, utopia
 from wcac_jax.config import (
     TUPLE_AS_LIST,
     Config,
@@ -73,8 +76,8 @@ class PracticalConfig(Config):
     learning_rate: float = field(3e-4, "Adam's step size (its start, with anneal_lr)", positive)
     anneal_lr: bool = field(
         False,
-        "decay the step size linearly to 0 over the run's num_iterations * num_epochs * "
-        "num_minibatches updates (as CleanRL's and purejaxrl's PPO do)",
+        "decay the step size linearly to 0 (over the run's num_iterations * num_epochs * "
+        "num_minibatches updates, as CleanRL's and purejaxrl's PPO do)",
     )
     adam_eps: float = field(1e-5, "Adam's epsilon", positive)
     max_grad_norm: float = field(0.5, "global gradient-norm clip", positive)
@@ -86,10 +89,8 @@ class PracticalConfig(Config):
         0.0, "initial log-std of the Gaussian policy (state-independent, learned)", finite
     )
     normalize_obs: bool = field(True, "running mean/std observation normalisation")
-    obs_clip: float = field(10.0, "normalised observations are clipped to +-obs_clip", positive)
-    normalize_returns: bool = field(
-        True, "per-objective reward scaling by the discounted return's std"
-    )
+    obs_clip: float = field(10.0, "clip normalised observations to +-obs_clip", positive)
+    normalize_returns: bool = field(True, "scale each reward by its return's std")
     reward_clip: float = field(10.0, "scaled rewards are clipped to +-reward_clip", positive)
     mu: float = field(
         1.0, "smoothing temperature of smooth_wc (in the objectives' discounted units)", positive
@@ -105,21 +106,19 @@ class PracticalConfig(Config):
         "'fixed' (j_ub) or 'estimated' (by the sweep, wcac_jax.utopia)",
         one_of(utopia.UTOPIA_MODES),
     )
-    utopia_margin: float = field(
-        0.1, "the estimated utopia point's margin over the best (utopia.estimate)", non_negative
-    )
+    utopia_margin: float = field(0.1, "estimated utopia's margin (utopia.estimate)", non_negative)
     utopia_min_spread: float = field(
         1.0, "the estimated utopia point's least spread (utopia.estimate)", positive
     )
     scalarization: str = field(
         "smooth_wc",
-        "a registered scalarization: smooth_wc (the method), wc, linear",
+        "the actor's direction, a registered scalarization (smooth_wc is the method)",
         one_of(lambda: tuple(scalarize.SCALARIZATIONS)),
     )
     augment: float = field(
         0.0,
-        "rho of the augmented scalarization S + rho * sum_i (z_i - J_i) "
-        "(scalarize.augmented_coefficients): a weight rho on every objective, in its own "
+        "rho of S + rho * sum_i (z_i - J_i) (the augmented scalarization, "
+        "scalarize.augmented_coefficients): a weight rho on every objective, in its own "
         "units, on top of w_i p_i; 0 is the method itself",
         non_negative,
     )
@@ -184,68 +183,6 @@ class PracticalState:
 # ----------------------------------------------------------------------------- formulas
 
 
-def gae(
-    values: chex.Array,
-    next_values: chex.Array,
-    rewards: chex.Array,
-    terminal: chex.Array,
-    done: chex.Array,
-    gamma: float,
-    lam: float,
-) -> chex.Array:
-    """Per-objective generalised advantage estimates along ONE environment's trajectory.
-
-    Time is the leading axis: transition `t` goes from `s_t` to `s'_t` (the true next
-    state, also when the episode ended and the environment reset), so
-    `delta_t = r_t + gamma (1 - terminal_t) V(s'_t) - V(s_t)` and
-    `A_t = delta_t + gamma lam (1 - done_t) A_{t+1}`, with `A_L = 0`: a fall
-    (`terminal`) does not bootstrap; a time-limit truncation (`done`, not `terminal`)
-    bootstraps from `V(s'_t)`; neither carries advantages across the episode boundary;
-    the last transition bootstraps from `V(s'_{L-1})`.
-
-    Args:
-      values: `[L, m]` `V(s_t)`.
-      next_values: `[L, m]` `V(s'_t)`.
-      rewards: `[L, m]`.
-      terminal: `[L]`, 1 where `s'_t` is terminal.
-      done: `[L]`, 1 where the episode ended at `t` (terminal or truncated).
-      gamma: discount.
-      lam: GAE's `lambda`.
-
-    Returns:
-      `[L, m]` advantages (the critic's targets are `advantages + values`).
-    """
-    chex.assert_rank([values, terminal, done], [2, 1, 1])
-    chex.assert_equal_shape([values, next_values, rewards])
-    deltas = rewards + gamma * (1.0 - terminal)[:, None] * next_values - values
-    carry_on = gamma * lam * (1.0 - done)[:, None]
-
-    def body(next_adv, x):
-        delta, c = x
-        adv = delta + c * next_adv
-        return adv, adv
-
-    _, adv = jax.lax.scan(body, jnp.zeros_like(deltas[0]), (deltas, carry_on), reverse=True)
-    return adv
-
-
-def clipped_surrogate(log_ratio: chex.Array, advantages: chex.Array, clip_eps: float):
-    """PPO's clipped objective `mean(min(rho A, clip(rho, 1 - eps, 1 + eps) A))` (maximised).
-
-    Args:
-      log_ratio: `[B]` `log pi_new(a|s) - log pi_old(a|s)`.
-      advantages: `[B]`.
-      clip_eps: `eps`.
-
-    Returns:
-      A scalar.
-    """
-    chex.assert_equal_shape([log_ratio, advantages])
-    ratio = jnp.exp(log_ratio)
-    clipped = jnp.clip(ratio, 1.0 - clip_eps, 1.0 + clip_eps)
-    return jnp.mean(jnp.minimum(ratio * advantages, clipped * advantages))
-
-
 def accumulate_returns(
     acc: chex.Array, rewards: chex.Array, done: chex.Array, gamma: float
 ) -> tuple[chex.Array, chex.Array]:
@@ -277,103 +214,28 @@ def scale_rewards(rewards: chex.Array, std: chex.Array, clip: float) -> chex.Arr
     return jnp.clip(rewards / std, -clip, clip)
 
 
-def normalize_advantages(adv: chex.Array) -> chex.Array:
-    """`(A - mean) / (std + 1e-8)` over a minibatch `[B]`."""
-    return (adv - jnp.mean(adv)) / (jnp.std(adv) + 1e-8)
+def default_networks(config: PracticalConfig) -> networks.NetworkFactory:
+    """The practical update's networks: tanh MLPs of `config.width` and `config.depth`,
+    orthogonally initialised, the actor's last layer at scale 0.01, the critic's at 1."""
+
+    def factory(in_size: int, out_size: int, *, role: str) -> networks.Network:
+        scale = 0.01 if role == "actor" else 1.0
+        return networks.tanh_mlp(in_size, out_size, config.width, config.depth, scale)
+
+    return factory
 
 
-def minibatch_loss(
-    config: PracticalConfig,
-    policy: networks.Policy,
-    value_net: networks.Network,
-    params: dict,
-    batch: dict,
-) -> tuple[chex.Array, dict]:
-    """One minibatch's loss (minimised) and diagnostics: `-surrogate + vf_coef * value_loss
-    - ent_coef * entropy`, the surrogate on the minibatch-normalised advantage.
-
-    Args:
-      config: `clip_eps`, `vf_coef`, `ent_coef`.
-      policy, value_net: the networks.
-      params: `{"actor", "critic"}` trainable parameters (what is differentiated).
-      batch: `obs` `[B, obs]` (already normalised), `action` `[B, ...]`, `log_prob` `[B]`
-        (the behaviour policy's), `advantage` `[B]` (scalarized), `target` `[B, m]`, and
-        `actor_fixed` / `critic_fixed`, the `NetParams` whose `trainable` part `params`
-        replaces.
-
-    Returns:
-      `(loss, {"value_loss", "approx_kl", "clip_fraction"})`, all scalars.
-    """
-    dist = policy.apply(batch["actor_fixed"].replace(trainable=params["actor"]), batch["obs"])
-    log_ratio = policy.log_prob(dist, batch["action"]) - batch["log_prob"]
-    surrogate = clipped_surrogate(
-        log_ratio, normalize_advantages(batch["advantage"]), config.clip_eps
-    )
-    v = value_net.apply(batch["critic_fixed"].replace(trainable=params["critic"]), batch["obs"])
-    value_loss = 0.5 * jnp.mean(jnp.square(v - batch["target"]))
-    entropy = jnp.mean(policy.entropy(dist))
-    loss = -surrogate + config.vf_coef * value_loss - config.ent_coef * entropy
-    ratio = jnp.exp(log_ratio)
-    return loss, {
-        "value_loss": value_loss,
-        "approx_kl": jnp.mean((ratio - 1.0) - log_ratio),
-        "clip_fraction": jnp.mean((jnp.abs(ratio - 1.0) > config.clip_eps).astype(jnp.float32)),
-    }
-
-
-def minibatch_epochs(
-    loss_fn,
-    optimizer: optax.GradientTransformation,
-    params,
-    opt_state: optax.OptState,
-    data: dict,
-    key: chex.PRNGKey,
-    num_epochs: int,
-    num_minibatches: int,
-    fixed: dict | None = None,
-):
-    """`num_epochs` passes over `data`, each a fresh permutation cut into
-    `num_minibatches` minibatches, one `optimizer` step on `loss_fn` per minibatch.
-
-    Args:
-      loss_fn: `(params, minibatch) -> (loss, info)`.
-      optimizer: an optax transformation.
-      params, opt_state: where to start.
-      data: leaves `[M, ...]`, `M` divisible by `num_minibatches`.
-      key: the permutations' key (split into one per epoch).
-      num_epochs, num_minibatches: static sizes.
-      fixed: entries added unsliced to every minibatch.
-
-    Returns:
-      `((params, opt_state), info)`, `info`'s leaves `[num_epochs, num_minibatches, ...]`.
-    """
-    fixed = fixed or {}
-    n = jax.tree.leaves(data)[0].shape[0]
-    mb_size = n // num_minibatches
-
-    def minibatch_step(carry, mb):
-        params, opt_state = carry
-        grads, info = jax.grad(loss_fn, has_aux=True)(params, {**mb, **fixed})
-        updates, opt_state = optimizer.update(grads, opt_state, params)
-        return (optax.apply_updates(params, updates), opt_state), info
-
-    def epoch(carry, key):
-        perm = jax.random.permutation(key, n)
-        mbs = jax.tree.map(
-            lambda x: x[perm].reshape((num_minibatches, mb_size, *x.shape[1:])), data
-        )
-        return jax.lax.scan(minibatch_step, carry, mbs)
-
-    return jax.lax.scan(epoch, (params, opt_state), jax.random.split(key, num_epochs))
-
-
-def make_policy(config: PracticalConfig, env) -> networks.Policy:
+def make_policy(
+    config: PracticalConfig, env, network_factory: networks.NetworkFactory | None = None
+) -> networks.Policy:
     """A Gaussian with state-independent learned log-std (continuous actions in
-    `[-1, 1]^act`), or a softmax over `env.num_actions` (discrete ones), on a tanh MLP."""
+    `[-1, 1]^act`), or a softmax over `env.num_actions` (discrete ones), on
+    `network_factory`'s actor (default: a tanh MLP, `default_networks`)."""
     obs_size = int(env.observation_size)
+    factory = network_factory or default_networks(config)
     return runtime.make_policy(
         env,
-        lambda out: networks.tanh_mlp(obs_size, out, config.width, config.depth, 0.01),
+        lambda out: factory(obs_size, out, role="actor"),
         config.log_std_init,
         learn_log_std=True,
     )
@@ -411,14 +273,47 @@ def _init(parts: runtime.UpdateParts, key: chex.PRNGKey, pref: chex.Array) -> Pr
     )
 
 
-def _advantages(parts: runtime.UpdateParts, state: PracticalState, batch, env_state):
-    """Scaled rewards, GAE and the objective estimates of a rollout `batch` (leaves
-    `[L, N, ...]`).
+class Estimates(NamedTuple):
+    """What a rollout's rewards and the critic give (`_advantages`).
 
-    Returns:
-      `(discounted_return [N, m], return_stats, sigma [m], obs_in [L, N, obs],
-      adv [L, N, m], target [L, N, m], j_hat [m])`.
+    Attributes:
+      discounted_return: `[N, m]` each environment's discounted return carried on.
+      return_stats: the return normaliser after the rollout.
+      sigma: `[m]` the reward scales (the discounted return's std).
+      obs_in: `[L, N, obs]` the rollout's preprocessed observations.
+      adv: `[L, N, m]` per-objective GAE advantages (in scaled units).
+      target: `[L, N, m]` the critic's regression targets.
+      j_hat: `[m]` `sigma * mean_{s0} V(s0)`, the objectives' estimates.
     """
+
+    discounted_return: chex.Array
+    return_stats: running_statistics.RunningStatisticsState
+    sigma: chex.Array
+    obs_in: chex.Array
+    adv: chex.Array
+    target: chex.Array
+    j_hat: chex.Array
+
+
+class Optimised(NamedTuple):
+    """What an iteration's minibatch epochs give (`_optimise`).
+
+    Attributes:
+      params: `{"actor", "critic"}` the new trainable parameters.
+      opt_state: the optimiser's new state.
+      info: `losses.ppo_loss`'s diagnostics, leaves `[epochs, minibatches]`.
+      dist: the behaviour policy's distributions at the rollout's observations.
+    """
+
+    params: dict
+    opt_state: optax.OptState
+    info: dict
+    dist: Any
+
+
+def _advantages(parts: runtime.UpdateParts, state: PracticalState, batch, env_state) -> Estimates:
+    """Scaled rewards, GAE and the objective estimates of a rollout `batch` (leaves
+    `[L, N, ...]`)."""
     config, m = parts.config, parts.m
     prep = functools.partial(parts.preprocess, state.obs_stats)
     discounted_return, seen = accumulate_returns(
@@ -438,11 +333,11 @@ def _advantages(parts: runtime.UpdateParts, state: PracticalState, batch, env_st
     obs_in = prep(batch.obs)  # [L, N, obs]
     v = values(obs_in)
     v_next = values(prep(batch.next_obs))
-    adv = jax.vmap(gae, in_axes=(1, 1, 1, 1, 1, None, None), out_axes=1)(
+    adv = jax.vmap(losses.gae, in_axes=(1, 1, 1, 1, 1, None, None), out_axes=1)(
         v, v_next, reward, batch.terminal, batch.done, config.gamma, config.gae_lambda
     )  # [L, N, m]
     j_hat = sigma * jnp.mean(values(prep(env_state.info["first_obs"])), axis=0)
-    return discounted_return, return_stats, sigma, obs_in, adv, adv + v, j_hat
+    return Estimates(discounted_return, return_stats, sigma, obs_in, adv, adv + v, j_hat)
 
 
 def _scalarize(parts: runtime.UpdateParts, state: PracticalState, j_hat, pref, direction):
@@ -466,10 +361,10 @@ def _scalarize(parts: runtime.UpdateParts, state: PracticalState, j_hat, pref, d
 
 def _optimise(
     parts: runtime.UpdateParts, state: PracticalState, batch, obs_in, scalar_adv, target, key
-):
-    """`num_epochs` passes of minibatch steps on the iteration's `M` samples:
-    `(params {"actor", "critic"}, opt_state, info, dist)` (`dist`: the behaviour
-    policy's distributions at `obs_in`)."""
+) -> Optimised:
+    """`num_epochs` passes of minibatch steps on the iteration's `M` samples, from the
+    behaviour policy's distributions at `obs_in` `[L, N, obs]`; `scalar_adv` `[L, N]`,
+    `target` `[L, N, m]`."""
     config, policy, n = parts.config, parts.policy, parts.config.sample_count
     dist = policy.apply(state.actor, obs_in)
     flat = {
@@ -480,8 +375,16 @@ def _optimise(
         "target": target.reshape((n, parts.m)),
     }
     params = {"actor": state.actor.trainable, "critic": state.critic.trainable}
-    (params, opt_state), info = minibatch_epochs(
-        functools.partial(minibatch_loss, config, policy, parts.value_net),
+    loss = functools.partial(
+        losses.ppo_loss,
+        policy=policy,
+        value_net=parts.value_net,
+        clip_eps=config.clip_eps,
+        vf_coef=config.vf_coef,
+        ent_coef=config.ent_coef,
+    )
+    (params, opt_state), info = losses.minibatch_epochs(
+        loss,
         parts.optimizer,
         params,
         state.opt_state,
@@ -491,14 +394,15 @@ def _optimise(
         config.num_minibatches,
         fixed={"actor_fixed": state.actor, "critic_fixed": state.critic},
     )
-    return params, opt_state, info, dist
+    return Optimised(params, opt_state, info, dist)
 
 
 def _iteration(parts: runtime.UpdateParts, state: PracticalState, pref: chex.Array, direction=None):
     """One iteration (see the module docstring): `(state, metrics)`."""
     config = parts.config
     key_rollout, key_epochs = runtime.iteration_keys(state)
-    finished_before = jnp.sum(state.episodes.finished)
+
+    # ------------------------------------------------ rollout: L steps of N environments
     (env_state, episodes), batch = runtime.rollout(
         parts.env_step,
         state.actor,
@@ -508,108 +412,106 @@ def _iteration(parts: runtime.UpdateParts, state: PracticalState, pref: chex.Arr
         key_rollout,
         config.rollout_steps,
     )  # batch leaves [L, N, ...]
-    discounted_return, return_stats, sigma, obs_in, adv, target, j_hat = _advantages(
-        parts, state, batch, env_state
+
+    # ------------------------------------------------ per-objective advantages and Jhat
+    estimates = _advantages(parts, state, batch, env_state)
+
+    # ------------------------------------------------ the scalarized advantage
+    utopia_state, z, weights, scalarized = _scalarize(
+        parts, state, estimates.j_hat, pref, direction
     )
-    utopia_state, z, weights, scalarized = _scalarize(parts, state, j_hat, pref, direction)
     # each A_i back in its objective's units
-    coeff = scalarize.augmented_coefficients(weights, pref, config.augment) * sigma
-    params, opt_state, info, dist = _optimise(
-        parts, state, batch, obs_in, adv @ coeff, target, key_epochs
+    coeff = scalarize.augmented_coefficients(weights, pref, config.augment) * estimates.sigma
+
+    # ------------------------------------------------ epochs of minibatch steps
+    optimised = _optimise(
+        parts, state, batch, estimates.obs_in, estimates.adv @ coeff, estimates.target, key_epochs
     )
-    obs_seen = batch.obs.reshape((config.sample_count, parts.obs_size))
-    metrics = {
-        "train/j_hat": j_hat,
-        "train/weights": weights,
-        "train/scalarized": scalarized,
-        "train/g_mu": scalarize.smooth_wc(j_hat, pref, z, config.mu),
-        "train/utopia": z,
-    }
-    return finish_iteration(
-        parts,
-        state,
-        metrics,
-        (params, opt_state, info, dist),
-        obs_seen,
-        finished_before,
-        adv,
-        sigma,
-        return_stats=return_stats,
-        discounted_return=discounted_return,
-        utopia=utopia_state,
+
+    # ------------------------------------------------ the next state and the metrics
+    renewed = state.replace(
         env_state=env_state,
         episodes=episodes,
+        return_stats=estimates.return_stats,
+        discounted_return=estimates.discounted_return,
+        utopia=utopia_state,
+        obs_stats=runtime.update_obs_stats(
+            config.normalize_obs,
+            state.obs_stats,
+            batch.obs.reshape((config.sample_count, parts.obs_size)),
+        ),
     )
+    metrics = {
+        "train/j_hat": estimates.j_hat,
+        "train/weights": weights,
+        "train/scalarized": scalarized,
+        "train/g_mu": scalarize.smooth_wc(estimates.j_hat, pref, z, config.mu),
+        "train/utopia": z,
+    }
+    return finish_iteration(parts, state, renewed, estimates, optimised, metrics)
 
 
 def finish_iteration(
     parts: runtime.UpdateParts,
-    state,
+    before: PracticalState,
+    renewed: PracticalState,
+    estimates: Estimates,
+    optimised: Optimised,
     metrics: dict,
-    optimised: tuple,
-    obs_seen: chex.Array,
-    finished_before: chex.Array,
-    adv: chex.Array,
-    sigma: chex.Array,
-    **carried,
 ):
-    """The end of an iteration the practical and the conditioned update share.
-
-    Args:
-      metrics: the update's own metrics, completed here by the episodes', advantages'
-        and epochs' statistics.
-      optimised: `(params, opt_state, info, dist)` of `_optimise`.
-      obs_seen: `[n, obs]` the raw observations the rollout saw (for the normaliser).
-      finished_before: episodes finished before the rollout.
-      adv: `[L, N, m]` the per-objective advantages; sigma: `[m]` the return scales.
-      carried: the state's fields the rollout and advantages renewed (`return_stats`,
-        `discounted_return`, `utopia`, `env_state`, `episodes`).
+    """The end of an iteration the practical and the conditioned update share: the
+    optimised networks and the iteration count written into `renewed` (the state whose
+    environments, episodes, normalisers and utopia estimate the update has renewed),
+    and `metrics` (the update's own) completed by the episodes', advantages' and epochs'
+    statistics.
 
     Returns:
       `(state, metrics)`.
     """
-    params, opt_state, info, dist = optimised
-    episodes = carried["episodes"]
+    episodes, info = renewed.episodes, optimised.info
     metrics = {
         **metrics,
         "train/episode_return": runtime.finished_episode_return(episodes),
-        "train/episodes": jnp.sum(episodes.finished) - finished_before,
-        "train/iteration": state.iteration + 1,
-        "train/advantage": jnp.mean(adv, axis=(0, 1)),
-        "train/return_std": sigma,
-        "train/policy_entropy": jnp.mean(parts.policy.entropy(dist)),
+        "train/episodes": jnp.sum(episodes.finished) - jnp.sum(before.episodes.finished),
+        "train/iteration": before.iteration + 1,
+        "train/advantage": jnp.mean(estimates.adv, axis=(0, 1)),
+        "train/return_std": estimates.sigma,
+        "train/policy_entropy": jnp.mean(parts.policy.entropy(optimised.dist)),
         "train/value_loss": jnp.mean(info["value_loss"]),
         "train/approx_kl": jnp.mean(info["approx_kl"]),
         "train/clip_fraction": jnp.mean(info["clip_fraction"]),
     }
-    new_state = state.replace(
-        actor=state.actor.replace(trainable=params["actor"]),
-        critic=state.critic.replace(trainable=params["critic"]),
-        opt_state=opt_state,
-        obs_stats=runtime.update_obs_stats(parts.config.normalize_obs, state.obs_stats, obs_seen),
-        iteration=state.iteration + 1,
-        **carried,
+    new_state = renewed.replace(
+        actor=before.actor.replace(trainable=optimised.params["actor"]),
+        critic=before.critic.replace(trainable=optimised.params["critic"]),
+        opt_state=optimised.opt_state,
+        iteration=before.iteration + 1,
     )
     return new_state, metrics
 
 
-def make_trainer(config: PracticalConfig, env) -> runtime.Trainer:
+def make_trainer(
+    config: PracticalConfig, env, network_factory: networks.NetworkFactory | None = None
+) -> runtime.Trainer:
     """Builds the pure `init`/`run`/`step` of the practical update for `env`.
 
-    With `config.utopia == "estimated"`, `step` and `run` must be called under
-    `jax.vmap(..., axis_name=utopia.PREF_AXIS)` (the sweep does; one preference alone is
-    a vmap over one).
+    With `config.utopia == "estimated"`, `step` and `run` called under
+    `jax.vmap(..., axis_name=utopia.PREF_AXIS)` share the utopia point across the
+    preferences (the sweep does); anywhere else each preference estimates its own.
 
     Args:
       config: static sizes and hyperparameters.
       env: a single unbatched Brax-style environment with vector rewards (see
         `wcac_jax.envs`).
+      network_factory: builds the actor and the vector critic
+        (`networks.NetworkFactory`; default `default_networks(config)`).
     """
     m, obs_size = int(env.num_objectives), int(env.observation_size)
     j_ub = jnp.asarray(runtime.resolve_j_ub(config, env), jnp.float32)
     venv = runtime.vectorize(env)
-    policy = make_policy(config, env)
-    value_net = networks.tanh_mlp(obs_size, m, config.width, config.depth, 1.0)
+    factory = network_factory or default_networks(config)
+    policy = make_policy(config, env, factory)
+    value_net = factory(obs_size, m, role="critic")
     preprocess = runtime.make_preprocess(config.normalize_obs, obs_clip=config.obs_clip)
     parts = runtime.UpdateParts(
         config=config,

@@ -1,6 +1,6 @@
 """The environment registry: names to constructors, each with its objectives and utopia point.
 
-`make(name, **overrides)` builds an environment; every environment is a `base.MOEnv`, a
+`make(name, **overrides)` builds an environment; every environment is a `MOEnv` (`base`), a
 Brax-style `Env` (`reset(key) -> State`, `step(state, action) -> State`, single unbatched
 copy) whose `State.reward` is a vector with one entry per objective, and which declares
 `objective_names`, `num_objectives`, `default_j_ub`, `default_hv_ref` (the hypervolume
@@ -34,10 +34,14 @@ def _import_mjx_quietly() -> None:
 
 _import_mjx_quietly()
 
+from brax.envs.base import State  # noqa: E402
+
+from wcac_jax.envs.base import MOEnv  # noqa: E402
 from wcac_jax.envs.wrappers import EpisodeWrapper  # noqa: E402
 
-# name -> "module:attribute"; imported lazily so that MJX loads only when it is used.
-_REGISTRY: dict[str, str] = {
+# name -> "module:attribute" (or a constructor, `register`); a task's module, and the model
+# it loads, is imported when the task is first made.
+_REGISTRY: dict[str, str | Callable] = {
     "concave_bandit": "wcac_jax.envs.concave_bandit:ConcaveBandit",
     "walker2d": "wcac_jax.envs.walker2d:Walker2d",
     "tabular_momdp": "wcac_jax.envs.tabular:TabularMOMDP",
@@ -61,8 +65,15 @@ _REGISTRY: dict[str, str] = {
 }
 
 
-def register(name: str, target: str) -> None:
-    """Registers `"module:attribute"` (a constructor taking keyword options) as `name`."""
+# options whose default has changed, with the value a run that recorded none of them ran
+# with (a sweep's `config.json` written before the change): Walker2d's constructor built
+# Brax's model on MJX until it took the command line's defaults
+EARLIER_DEFAULTS: dict[str, dict] = {"walker2d": {"physics": "brax", "engine": "mjx"}}
+
+
+def register(name: str, target: str | Callable) -> None:
+    """Registers a constructor taking keyword options as `name`: `"module:attribute"`
+    (imported when first used), or the constructor itself (e.g. a user's own class)."""
     _REGISTRY[name] = target
 
 
@@ -74,7 +85,10 @@ def names() -> tuple[str, ...]:
 def _constructor(name: str) -> Callable:
     if name not in _REGISTRY:
         raise ValueError(f"unknown environment {name!r}; valid: {', '.join(names())}")
-    module, attr = _REGISTRY[name].split(":")
+    target = _REGISTRY[name]
+    if callable(target):
+        return target
+    module, attr = target.split(":")
     return getattr(importlib.import_module(module), attr)
 
 
@@ -112,4 +126,13 @@ def make(name: str, **overrides):
     return ctor(**overrides)
 
 
-__all__ = ["EpisodeWrapper", "make", "names", "option_defaults", "register"]
+__all__ = [
+    "EARLIER_DEFAULTS",
+    "EpisodeWrapper",
+    "MOEnv",
+    "State",
+    "make",
+    "names",
+    "option_defaults",
+    "register",
+]

@@ -22,10 +22,8 @@ Resets add uniform noise in `[-5e-3, 5e-3]` to the initial positions and velocit
 
 Two physics models (`physics=`):
 
-- `"brax"` (default, fast): Brax's walker2d model (Euler integrator, 4 solver
-  iterations, right-foot friction 0.9), MJX's default line search.
-- `"gymnasium-v5"`: Gymnasium's `walker2d_v5.xml`, shipped in `assets/` with its MIT
-  notice (RK4 integrator, friction 1.9 on both feet): the model the paper and
+- `"gymnasium-v5"` (default): Gymnasium's `walker2d_v5.xml`, shipped in `assets/` with
+  its MIT notice (RK4 integrator, friction 1.9 on both feet): the model the paper and
   MO-Gymnasium use. On MJX its solver is capped at 4 iterations and 4 line-search
   iterations (MuJoCo's defaults are 100 and 50; the `"mujoco"` engine keeps those).
   Measured on the 2-core CPU with `experiments/bench_env.py`, the cap makes MJX
@@ -36,20 +34,24 @@ Two physics models (`physics=`):
   `mo_gymnasium.make("mo-walker2d-v5")` passes with the cap (positions within 5.5e-6,
   velocities within 1e-4 on 99% of 320 states and 6.6e-4 at worst, rewards within
   4.8e-5). `solver_iterations=100, ls_iterations=50` restores MuJoCo's settings.
+- `"brax"` (fast on MJX): Brax's walker2d model (Euler integrator, 4 solver iterations,
+  right-foot friction 0.9), MJX's default line search.
 
 `"brax"` and `"gymnasium-v5"` are different models: from the same state under the same
 random actions their `qpos` differ by 0.009 after one step and by ~1 after 100 steps.
 
 Two engines (`engine=`), either model with either engine (`engines` explains them):
 
-- `"mjx"` (default): MJX in float32 through Brax's MJX pipeline; the path for
-  accelerators.
-- `"mujoco"`: MuJoCo's C engine in float64, every environment of a step in one
+- `"mujoco"` (default): MuJoCo's C engine in float64, every environment of a step in one
   multi-threaded `mujoco.rollout` call from inside the compiled program; several times
   faster on a CPU. It keeps the model's own solver settings (for `"gymnasium-v5"`:
   MuJoCo's 100 iterations and 50 line-search iterations, as MO-Gymnasium), so with
   `physics="gymnasium-v5"` it is MO-Gymnasium's environment up to float32 rounding of
   observations and rewards.
+- `"mjx"`: MJX in float32 through Brax's MJX pipeline; the path for accelerators.
+
+Until the command line's defaults became these, the constructor's were `"brax"` on
+`"mjx"` (`envs.EARLIER_DEFAULTS`: what a run that recorded neither option ran with).
 """
 
 from __future__ import annotations
@@ -89,9 +91,9 @@ class Walker2d(MujocoEnv):
     """Multi-objective Walker2d; see the module docstring.
 
     Args:
-      physics: `"brax"` or `"gymnasium-v5"`.
+      physics: `"gymnasium-v5"` or `"brax"`.
       episode_length: time limit in steps, `>= 1` (applied by `EpisodeWrapper`).
-      engine: `"mjx"` or `"mujoco"`.
+      engine: `"mujoco"` or `"mjx"`.
       reset_noise_scale: half-width of the uniform reset noise.
       solver_iterations: MuJoCo's `opt.iterations` (`None`: 4 for `"gymnasium-v5"` on
         MJX, otherwise the model's own: 4 for `"brax"`, 100 for `"gymnasium-v5"`).
@@ -106,9 +108,9 @@ class Walker2d(MujocoEnv):
 
     def __init__(
         self,
-        physics: str = "brax",
+        physics: str = "gymnasium-v5",
         episode_length: int = 500,
-        engine: str = "mjx",
+        engine: str = "mujoco",
         reset_noise_scale: float = 5e-3,
         solver_iterations: int | None = None,
         ls_iterations: int | None = None,

@@ -39,7 +39,7 @@ from flax import struct
 from wcac_jax import actor as actor_lib
 from wcac_jax import critic as critic_lib
 from wcac_jax import scalarize
-from wcac_jax.networks import NetParams, make_network, project_to_ball
+from wcac_jax.networks import NetParams, make_network
 from wcac_jax.recsys import ncis as ncis_lib
 from wcac_jax.recsys import offline
 from wcac_jax.recsys.data import Protocol
@@ -86,48 +86,6 @@ class Alg1State:
 def log_prob(mu: chex.Array, action: chex.Array, sigma: float) -> chex.Array:
     """`log N(action; mu, sigma^2)` without its constant: `-(action - mu)^2 / (2 sigma^2)`."""
     return -jnp.square(action - mu) / (2.0 * sigma**2)
-
-
-def weighted_td_step(
-    apply,
-    state: critic_lib.CriticState,
-    x,
-    reward,
-    x_next,
-    done,
-    rho,
-    *,
-    gamma: float,
-    beta: float,
-    radius: float,
-):
-    """One step of Algorithm 2 for all `m` critics with per-transition weights `rho`:
-    `W_i <- Proj_B(W_i - beta mean_B(rho delta_i grad V_i(s)))`, then the iterate average.
-
-    Args:
-      x, x_next: `[B, in]`; reward: `[B, m]`; done, rho: `[B]`.
-
-    Returns:
-      `(state, delta [B, m])`. With `rho = 1` this is `critic.update`.
-    """
-
-    def one(params, r):
-        v_next = jax.lax.stop_gradient(apply(params, x_next)[:, 0])
-        v, vjp = jax.vjp(lambda t: apply(params.replace(trainable=t), x)[:, 0], params.trainable)
-        delta = critic_lib.td_error(v, r, v_next, done, gamma)
-        (grad,) = vjp(rho * delta / delta.shape[0])
-        return jax.tree.map(lambda w, g: w - beta * g, params.trainable, grad), delta
-
-    new, delta = jax.vmap(one, in_axes=(0, 1))(state.params, reward)
-    new = jax.vmap(project_to_ball, in_axes=(0, 0, None))(new, state.center, radius)
-    k = state.step.astype(jnp.float32)
-    average = jax.tree.map(
-        lambda a, w: a * ((k + 1.0) / (k + 2.0)) + w / (k + 2.0), state.average, new
-    )
-    state = state.replace(
-        params=state.params.replace(trainable=new), average=average, step=state.step + 1
-    )
-    return state, delta.T
 
 
 def episode_starts(data: Protocol) -> np.ndarray:
@@ -196,17 +154,17 @@ def make_train(cfg: offline.OfflineConfig, acfg: Alg1Config, data: Protocol):
         rho = ncis_lib.importance_weights(
             mu, behaviour[batch["rows"]], batch["action"], acfg.sigma, acfg.cap
         )
-        critic, delta = weighted_td_step(
+        critic, delta = critic_lib.update(
             critic_net.apply,
             state.critic,
             batch["x"],
             batch["reward"],
             batch["x_next"],
             batch["done"],
-            rho,
             gamma=cfg.gamma,
-            beta=acfg.beta,
+            learning_rate=acfg.beta,
             radius=acfg.radius,
+            weight=rho,
         )
         loss = 0.5 * jnp.sum(jnp.mean(jnp.square(delta), axis=0))
         return state.replace(critic=critic, step=state.step + 1), (loss, batch, rho)

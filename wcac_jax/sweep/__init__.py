@@ -21,7 +21,8 @@ the last preference, and the padding is dropped from the results. Several proces
 process's devices, each process runs its shards, and only process 0 reads and writes
 `out`.
 
-Modules: `config` (`SweepConfig` and the checks of a sweep's input), `training` (the
+Modules: `defaults` (`default_sweep`: the library's defaults resolved into a
+`SweepConfig`), `config` (`SweepConfig` and the checks of a sweep's input), `training` (the
 compiled programs, and the only imports of the training modules), `run` (`run_sweep`'s
 steps), `progress` (the bar and the log lines), `load` (`load_sweep`); the files a sweep
 writes are `wcac_jax.outputs` and `wcac_jax.checkpoint`, the choice among its last
@@ -39,8 +40,10 @@ from wcac_jax.sweep.config import (
     check_output_dir,
     default_hv_ref,
     make_env,
+    read_config,
     validate_prefs,
 )
+from wcac_jax.sweep.defaults import default_sweep
 from wcac_jax.sweep.load import LoadedSweep, load_sweep
 from wcac_jax.sweep.run import TrainingDiverged, check_pref_count, run_sweep
 from wcac_jax.sweep.training import make_chunk
@@ -56,9 +59,11 @@ __all__ = [
     "check_output_dir",
     "check_pref_count",
     "default_hv_ref",
+    "default_sweep",
     "load_sweep",
     "make_chunk",
     "make_env",
+    "read_config",
     "run_conditioned",
     "run_sweep",
     "staging_dir",

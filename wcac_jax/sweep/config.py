@@ -12,7 +12,7 @@ import jax
 import numpy as np
 
 from wcac_jax import envs, protocols, selection
-from wcac_jax.algos import AnyConfig, PaperConfig, from_dict, to_dict
+from wcac_jax.algos import PaperConfig, UpdateConfig, from_dict, to_dict
 from wcac_jax.outputs import json_bytes, unwritable_dir
 
 PAPER_STEPS_PER_PREF = 1_000_000
@@ -53,7 +53,7 @@ class SweepConfig:
     prefs: tuple[tuple[float, ...], ...]
     env: str = "walker2d"
     env_options: dict = field(default_factory=dict)
-    train: AnyConfig = field(default_factory=PaperConfig)
+    train: UpdateConfig = field(default_factory=PaperConfig)
     steps_per_pref: int = 100_000
     seed: int = 0
     eval_episodes: int = 8
@@ -64,6 +64,10 @@ class SweepConfig:
     protocol: str | None = None
 
     def __post_init__(self):
+        if self.env in envs.EARLIER_DEFAULTS:  # recorded whole: their default has changed
+            now = envs.option_defaults(self.env)
+            changed = {k: now[k] for k in envs.EARLIER_DEFAULTS[self.env]}
+            object.__setattr__(self, "env_options", {**changed, **self.env_options})
         for name in ("steps_per_pref", "eval_episodes", "select_last"):
             value = getattr(self, name)
             if not isinstance(value, int | np.integer) or isinstance(value, bool) or value < 1:
@@ -113,7 +117,7 @@ class SweepConfig:
         every = math.ceil(self.select_every / self.train.env_steps_per_iteration)
         return selection.candidate_iterations(self.num_iterations, self.select_last, every)
 
-    def train_config(self) -> AnyConfig:
+    def train_config(self) -> UpdateConfig:
         return self.train.replace(num_iterations=self.num_iterations)
 
     def to_dict(self) -> dict:
@@ -138,11 +142,13 @@ class SweepConfig:
 
     @classmethod
     def from_dict(cls, d: dict) -> SweepConfig:
-        """The inverse of `to_dict` (e.g. a run's `config.json`)."""
+        """The inverse of `to_dict` (e.g. a run's `config.json`), reading what older
+        runs recorded as they ran (`algos.from_dict`, `envs.EARLIER_DEFAULTS`)."""
         return cls(
             prefs=tuple(tuple(float(x) for x in p) for p in d["prefs"]),
             env=d["env"],
-            env_options=dict(d["env_options"]),
+            # an option it did not record ran with the default of its day
+            env_options={**envs.EARLIER_DEFAULTS.get(d["env"], {}), **d["env_options"]},
             train=from_dict(d["train"]),
             steps_per_pref=int(d["steps_per_pref"]),
             seed=int(d["seed"]),
@@ -211,35 +217,62 @@ def _flatten(d: dict, prefix: str = "") -> dict:
     return out
 
 
+def read_json(path: str, context: str, what: str) -> dict | None:
+    """The JSON object in `path`, or `None` if there is no such file.
+
+    Raises:
+      SweepError: naming `context` (what needed it), when `path` is not readable JSON or
+        holds no object (`what` it should hold, e.g. "sweep config").
+    """
+    if not os.path.isfile(path):
+        return None
+    try:
+        with open(path) as f:
+            saved = json.load(f)
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
+        raise SweepError(f"{context}{path!r} is not readable JSON ({err})") from None
+    if not isinstance(saved, dict):
+        raise SweepError(f"{context}{path!r} holds no {what} (a {type(saved).__name__})")
+    return saved
+
+
+def read_config(out: str, context: str = "--resume") -> SweepConfig:
+    """The sweep `out` holds, read from its `config.json` (`SweepConfig.from_dict`).
+
+    Raises:
+      SweepError: naming `context` (what needed it; "" for none) and why it can't be read.
+    """
+    prefix = f"{context}: " if context else ""
+    path = os.path.join(out, "config.json")
+    saved = read_json(path, prefix, "sweep config")
+    if saved is None:
+        raise SweepError(f"{prefix}no sweep in {out!r} (no config.json)")
+    try:
+        return SweepConfig.from_dict(saved)
+    except (KeyError, TypeError, ValueError) as err:
+        raise SweepError(f"{prefix}{path!r} holds no readable sweep config ({err!r})") from None
+
+
 def check_output_dir(out: str, config: SweepConfig, resume: bool, overwrite: bool = False) -> None:
-    """Checks `out` can be written (creating nothing); on resume, that the config matches.
-    A non-empty `out` is refused unless `resume` (continue its sweep) or `overwrite`
-    (replace it, `run_sweep`: through a directory beside it, so its parent must be
-    writable)."""
+    """Checks `out` can be written (creating nothing); on resume, that `config` is the
+    sweep `out` holds (`read_config`). A non-empty `out` is refused unless `resume`
+    (continue its sweep) or `overwrite` (replace it, `run_sweep`: through a directory
+    beside it, so its parent must be writable)."""
     if resume:
-        path = os.path.join(out, "config.json")
-        if not os.path.isfile(path):
-            raise SweepError(f"--resume: no sweep to resume in {out!r} (no config.json)")
-        try:
-            with open(path) as f:
-                saved = json.load(f)
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
-            raise SweepError(f"--resume: {path!r} is not readable JSON ({err})") from None
-        if not isinstance(saved, dict):
-            raise SweepError(f"--resume: {path!r} holds no sweep config (a {type(saved).__name__})")
-        saved = _flatten(saved)
+        saved = _flatten(json.loads(json_bytes(read_config(out).to_dict())))
         new = _flatten(json.loads(json_bytes(config.to_dict())))
-        if "device_count" not in saved:  # written before the device count was recorded
+        if saved.get("device_count") is None:  # written before the device count was recorded
             new.pop("device_count", None)
+            saved.pop("device_count", None)
         elif new.get("device_count") is None:  # `None`: every device, as `run_sweep` fills in
             new["device_count"] = jax.device_count()
-        for k, default in (("select_last", 1), ("select_every", 0)):  # before selection
-            if k not in saved and new.get(k) == default:
-                new.pop(k)
         differ = sorted(k for k in set(saved) | set(new) if saved.get(k) != new.get(k))
-        if differ:
-            details = ", ".join(f"{k} (saved {saved.get(k)!r}, now {new.get(k)!r})" for k in differ)
-            raise SweepError(f"--resume: the config in {out!r} differs: {details}")
+        if differ:  # at most three named
+            details = ", ".join(
+                f"{k} (saved {saved.get(k)!r}, now {new.get(k)!r})" for k in differ[:3]
+            )
+            more = f" and {len(differ) - 3} more" if len(differ) > 3 else ""
+            raise SweepError(f"--resume: the config in {out!r} differs: {details}{more}")
         for path in (out, os.path.join(out, "checkpoint")):
             if os.path.exists(path) and not os.access(path, os.W_OK | os.X_OK):
                 raise SweepError(f"--resume: {path!r} is not writable")

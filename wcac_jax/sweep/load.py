@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import json
-import os
 from typing import Any, NamedTuple
 
 import jax
@@ -13,7 +11,7 @@ import numpy as np
 from wcac_jax import checkpoint, selection
 from wcac_jax.algos import ConditionedConfig, conditioned, make_evaluate, make_trainer
 from wcac_jax.runtime import Trainer, UpdateState, with_env_steps
-from wcac_jax.sweep.config import SweepConfig, SweepError, make_env
+from wcac_jax.sweep.config import SweepConfig, SweepError, make_env, read_config
 from wcac_jax.utopia import PREF_AXIS
 
 
@@ -44,6 +42,19 @@ class LoadedSweep(NamedTuple):
     chosen: UpdateState | None = None
     candidates: UpdateState | None = None
 
+    @property
+    def reported(self) -> UpdateState:
+        """Each preference's reported policy, the one `front.json` evaluated (leaves
+        `[P, ...]`): `chosen` where the sweep chose among its last policies, else
+        `state`."""
+        return self.state if self.chosen is None else self.chosen
+
+    def policy(self, i: int):
+        """`obs [..., obs] -> action`: preference `i`'s reported policy, its mean action
+        as the environment takes it."""
+        state = jax.tree.map(lambda leaf: leaf[i], self.reported)
+        return lambda obs: self.trainer.mean_action(state, obs)
+
     def policy_at(self, pref):
         """`obs [..., obs] -> action`, the mean action at the preference `pref` `[m]` of a
         conditioned sweep's one network (`wcac_jax.sweep.conditioned`).
@@ -56,8 +67,9 @@ class LoadedSweep(NamedTuple):
         return conditioned.policy_at(self.trainer, jax.tree.map(lambda x: x[0], self.state), pref)
 
 
-def load_sweep(out: str) -> LoadedSweep:
-    """Restores the last checkpoint of the sweep in `out`, finished or interrupted.
+def load_sweep(out: str, network_factory=None) -> LoadedSweep:
+    """Restores the last checkpoint of the sweep in `out`, finished or interrupted (a
+    sweep trained with a `network_factory` of its own needs the same one here).
 
     The trained policies and critics, to evaluate, render or inspect; or, after a
     `TrainingDiverged`, the last good state, to replay iteration by iteration:
@@ -69,19 +81,12 @@ def load_sweep(out: str) -> LoadedSweep:
     Raises:
       SweepError: `out` holds no sweep configuration or no checkpoint.
     """
-    path = os.path.join(out, "config.json")
-    if not os.path.isfile(path):
-        raise SweepError(f"no sweep in {out!r} (no config.json)")
-    try:
-        with open(path) as f:
-            config = SweepConfig.from_dict(json.load(f))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError, KeyError, TypeError) as err:
-        raise SweepError(f"{path!r} holds no readable sweep config ({err!r})") from None
+    config = read_config(out, context="")
     manager = checkpoint.manager(out)
     if manager.latest_step() is None:
         raise SweepError(f"no checkpoint in {out!r}")
     env = make_env(config)
-    trainer = make_trainer(config.train_config(), env)
+    trainer = make_trainer(config.train_config(), env, network_factory)
     n_prefs, n_iters = len(config.prefs), config.num_iterations
     # the checkpoint's state and candidates hold the rows the sweep ran: the preferences
     # padded to its device count by repeating the last (`wcac_jax.sweep.run._lay_out`)
@@ -102,7 +107,7 @@ def load_sweep(out: str) -> LoadedSweep:
     }
     pool = None
     if config.select_last > 1:
-        evaluate = make_evaluate(config.train_config(), env, config.eval_episodes)
+        evaluate = make_evaluate(config.train_config(), env, config.eval_episodes, trainer)
         found = jax.eval_shape(jax.vmap(evaluate), state, keys)
         pool = selection.Pool(config.candidate_iterations, template["state"], found)
         template["selection"] = pool.tree

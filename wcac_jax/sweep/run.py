@@ -16,6 +16,7 @@ import os
 import shutil
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import Any, NamedTuple
 
@@ -24,8 +25,8 @@ import jax.numpy as jnp
 import numpy as np
 from jax.sharding import PartitionSpec as P
 
-from wcac_jax import checkpoint, distributed, selection
-from wcac_jax.algos import AnyConfig
+from wcac_jax import algos, checkpoint, distributed, selection
+from wcac_jax.algos import UpdateConfig, contract
 from wcac_jax.outputs import (
     json_bytes,
     replace_dir,
@@ -41,6 +42,7 @@ from wcac_jax.sweep.config import (
     check_output_dir,
     default_hv_ref,
     make_env,
+    read_json,
     validate_prefs,
 )
 from wcac_jax.sweep.progress import Pace, Progress, note
@@ -61,6 +63,8 @@ def run_sweep(
     chunks: int = 4,
     progress: bool | None = None,
     stop_after_chunks: int | None = None,
+    progress_fn: Callable[[int, dict], None] | None = None,
+    network_factory=None,
 ) -> dict:
     """Trains every preference of `config` in one compiled program; returns the front.
 
@@ -76,6 +80,13 @@ def run_sweep(
       progress: force the progress display on/off (`None`: on); a bar on a terminal,
         moved every few seconds (`wcac_jax.sweep.progress`), plain lines otherwise.
       stop_after_chunks: stop (as if interrupted) after this many chunks of this call.
+      progress_fn: called on process 0 after each call of the training program as
+        `progress_fn(env_steps, metrics)`: the env steps each preference has taken so
+        far, and the per-iteration metrics of the iterations just run (host arrays
+        `[P, n, ...]`, `train/env_steps` among them). Results do not depend on it.
+      network_factory: the updates' networks (`algos.make_trainer`; `None`: those the
+        configuration names). A sweep with a factory of its own is read back with the
+        same factory (`load_sweep`).
 
     Returns:
       The `front.json` content as a dict (see README, "Outputs"). Resuming a sweep that
@@ -105,7 +116,12 @@ def run_sweep(
     if jax.process_count() > 1 and progress is not False:
         _say_part(layout.sharding, plan.n_prefs, layout.n_pad)
     programs = build_programs(
-        plan.train, plan.env, layout.mesh, plan.chunk_len, plan.config.eval_episodes
+        plan.train,
+        plan.env,
+        layout.mesh,
+        plan.chunk_len,
+        plan.config.eval_episodes,
+        network_factory,
     )
     state = programs.init(layout.keys, layout.chunk_args[0])
     slow = plan.env.backend == "mjx" and jax.default_backend() == "cpu"
@@ -120,6 +136,8 @@ def run_sweep(
     executable = lowered.compile()
     run.compile_s = lower_s + time.perf_counter() - t0
     run.wall_start = time.perf_counter()
+    if distributed.is_writer():
+        run.progress_fn = progress_fn
     if not _train(plan, layout, programs, executable, run, report, stop_after_chunks):
         return {"interrupted": True, "iterations_done": run.done}
     evaluation, chosen = _evaluate(plan, layout, programs, run)
@@ -135,7 +153,7 @@ class Plan(NamedTuple):
     config: SweepConfig  # with its device count
     env: Any
     prefs: np.ndarray  # [P, m] float64, as asked for
-    train: AnyConfig  # with its `num_iterations`
+    train: UpdateConfig  # with its `num_iterations`
     j_ub: tuple[float, ...]
     hv_ref: tuple[float, ...]
     chunk_len: int  # iterations per chunk (the compiled program's scan length)
@@ -238,14 +256,23 @@ def _lower(plan: Plan, layout: Layout, programs: Programs, state) -> tuple[Any, 
     """The chunk program lowered (traced; compiled later), and the seconds it took.
 
     Raises:
-      SweepError: the per-iteration metrics of the whole run would not fit in this
-        host's memory.
+      SweepError: the update's metrics do not meet the contract (`algos.contract`), or
+        the per-iteration metrics of the whole run would not fit in this host's memory.
     """
     t0 = time.perf_counter()
     lowered = programs.chunk.lower(state, layout.stop_at(plan.n_iters), *layout.chunk_args)
     lower_s = time.perf_counter() - t0
-    # per-iteration metrics, shaped as the program returns them (`[P', chunk_len, ...]`)
+    # per-iteration metrics, shaped as the program returns them (`[P', chunk_len, ...]`):
+    # what the summary reads must be there before anything compiles
     template = lowered.out_info[1]
+    try:
+        contract.check_metrics(
+            algos.kind(plan.train),
+            {k: s.shape[2:] for k, s in template.items()},
+            int(plan.env.num_objectives),
+        )
+    except contract.ContractError as err:
+        raise SweepError(str(err)) from None
     metrics_bytes = sum(
         plan.n_prefs * plan.n_iters * math.prod(s.shape[2:]) * np.dtype(s.dtype).itemsize
         for s in template.values()
@@ -273,6 +300,7 @@ class _Run:
     steps_this_run: int = 0  # this run's env steps (all preferences)
     compile_s: float = 0.0  # this run's seconds lowering and compiling
     wall_start: float = 0.0  # `time.perf_counter()` when this run's training began
+    progress_fn: Callable | None = None  # `run_sweep`'s, on process 0
     # the clocks of the earlier parts of a resumed sweep (`TIMING`), counted from
     # iteration `timed_from`; empty when this run started the sweep
     before: dict = field(default_factory=dict)
@@ -378,6 +406,12 @@ def _train_to(
         _check_finite(run.metrics, lo, lo + n, plan.prefs, run.manager)
         run.done = lo + n
         progress.advance(n * plan.steps_per_iteration, dt)
+        if run.progress_fn is not None:
+            done = {k: v[:, lo : lo + n] for k, v in run.metrics.items()}
+            run.progress_fn(
+                int(run.done * plan.train.env_steps_per_iteration),
+                with_env_steps(plan.train, done),
+            )
 
 
 def _keep(layout: Layout, programs: Programs, run: _Run) -> None:
@@ -469,17 +503,7 @@ def _finished(out: str) -> dict | None:
     saved = {}
 
     def read():
-        path = os.path.join(out, "front.json")
-        if not os.path.isfile(path):
-            return
-        try:
-            with open(path) as f:
-                front = json.load(f)
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
-            raise SweepError(f"--resume: {path!r} is not readable JSON ({err})") from None
-        if not isinstance(front, dict):
-            raise SweepError(f"--resume: {path!r} holds no front (a {type(front).__name__})")
-        saved.update(front)
+        saved.update(read_json(os.path.join(out, "front.json"), "--resume: ", "front") or {})
 
     _on_writer(read)
     if not distributed.all_ok(bool(saved)):
@@ -513,7 +537,7 @@ def _say_part(sharding, n_prefs: int, n_pad: int) -> None:
     )
 
 
-def check_pref_count(n_prefs: int, train: AnyConfig, env, flag: str = "--n-prefs") -> None:
+def check_pref_count(n_prefs: int, train: UpdateConfig, env, flag: str = "--n-prefs") -> None:
     """Checks, before anything is allocated, that `n_prefs` preferences' training states
     alone (`state_bytes`, a lower bound of what a sweep holds) fit in this host's memory.
 

@@ -14,7 +14,7 @@ import jax.extend
 import jax.numpy as jnp
 from jax.sharding import PartitionSpec as P
 
-from wcac_jax.algos import AnyConfig, make_evaluate, make_trainer
+from wcac_jax.algos import UpdateConfig, make_evaluate, make_trainer
 from wcac_jax.runtime import Trainer
 from wcac_jax.utopia import DEVICE_AXIS, PREF_AXIS
 
@@ -73,7 +73,12 @@ class Programs(NamedTuple):
 
 
 def build_programs(
-    train: AnyConfig, env, mesh: jax.sharding.Mesh, chunk_len: int, eval_episodes: int
+    train: UpdateConfig,
+    env,
+    mesh: jax.sharding.Mesh,
+    chunk_len: int,
+    eval_episodes: int,
+    network_factory=None,
 ) -> Programs:
     """The `Programs` of `train` on `env`, each device running the vmapped program on its
     own preferences.
@@ -83,9 +88,9 @@ def build_programs(
     (MuJoCo's C engine) step each device's environments where they are, in every
     process. The preference axis is named so that a trainer may share values across it
     (the practical update's estimated utopia point, `wcac_jax.utopia`, which spans the
-    device axis too).
+    device axis too). `network_factory`: the update's networks (`make_trainer`).
     """
-    trainer = make_trainer(train, env)
+    trainer = make_trainer(train, env, network_factory)
     chunk = make_chunk(trainer, chunk_len)
 
     # (`check_vma=False`: values computed from constants, e.g. an episode's first flags,
@@ -96,14 +101,14 @@ def build_programs(
 
     init = jax.jit(per_device(jax.vmap(lambda k, p: trainer.init(jax.random.wrap_key_data(k), p))))
     chunk_fn = jax.jit(per_device(jax.vmap(chunk, axis_name=PREF_AXIS)), donate_argnums=0)
-    evaluate_one = make_evaluate(train, env, eval_episodes)
+    evaluate_one = make_evaluate(train, env, eval_episodes, trainer)
     evaluate = jax.jit(
         per_device(jax.vmap(lambda s, k: evaluate_one(s, jax.random.wrap_key_data(k))))
     )
     return Programs(init, chunk_fn, evaluate)
 
 
-def state_bytes(train: AnyConfig, env) -> int:
+def state_bytes(train: UpdateConfig, env) -> int:
     """Bytes of one preference's training state (`trainer.init`'s, shapes only: nothing
     is initialised)."""
     trainer = make_trainer(train, env)
