@@ -34,7 +34,7 @@ def test_every_environment_declares_what_training_reads(name):
 
 def test_option_defaults_without_building():
     assert envs.option_defaults("hopper")["engine"] == "mujoco"
-    assert envs.option_defaults("walker2d")["engine"] == "mjx"
+    assert envs.option_defaults("walker2d")["engine"] == "mujoco"  # the command line's
     assert envs.option_defaults("walker2d")["episode_length"] == 500
     assert envs.option_defaults("concave_bandit") == {}
     with pytest.raises(ValueError, match="'nope'.*concave_bandit"):
