@@ -108,6 +108,8 @@ R = {
     "mo_mujoco": f"{RES}/mo_mujoco",
     # one run per task family re-evaluated in MO-Gymnasium (`python -m wcac_jax.evaluate`)
     "mo_gymnasium_eval": f"{RES}/mo_gymnasium_eval",
+    # the field's protocols (`experiments/field.py`)
+    "field": f"{RES}/field",
     "kuairand_paper_scale": f"{RES}/kuairand_paper_scale",
 }
 
@@ -285,19 +287,18 @@ def md(header: list[str], rows: list[list[str]], align: str | None = None) -> st
 def conditioned_glance(doc: Doc) -> list[str]:
     """The glance row of the one conditioned network (`conditioned_walker2d`'s seeds)."""
     path = f"{R['conditioned']}/summary.json"
-    summary = load(path)
+    summary = d9 = load(path)
     runs = sorted(summary["runs"]["conditioned"].items(), key=lambda kv: int(kv[0]))
-    pub = summary["published_hv_3M"]
     cell = lambda key, fmt: ", ".join(doc.link(fmt(r[key]), path) for _, r in runs)  # noqa: E731
-    hv = lambda v: f"{v / 1e6:.2f}e6"  # noqa: E731
-    pgmorl, cola = doc.link(hv(pub["PGMORL"]), path), doc.link(hv(pub["COLA"]), path)
+    nine = d9["means"]["independent_9x1M"]["hv_morl_baselines"]
     return [
         "`walker2d --conditioned`",
         "one preference-conditioned network, 3M env steps in all, 33 preferences evaluated",
-        f"seeds {', '.join(s for s, _ in runs)}: PGMORL-scale HV "
-        f"{cell('hv_pgmorl', hv)} (published at 3M: PGMORL {pgmorl}, COLA {cola}); "
-        f"`[1, 0]` walks at {cell('forward_end_speed', lambda v: num(v, 2))} "
-        f"m/s; Spearman {cell('spearman_p0_forward', lambda v: num(v, 2))}",
+        f"seeds {', '.join(s for s, _ in runs)}: HV (morl-baselines) "
+        f"{cell('hv_morl_baselines', sci)} (nine policies of 1M each: "
+        f"{doc.link(sci(nine), path)}); `[1, 0]` walks at "
+        f"{cell('forward_end_speed', lambda v: num(v, 2))} m/s; "
+        f"Spearman {cell('spearman_p0_forward', lambda v: num(v, 2))}",
         f"{cell('wall_s', lambda v: num(v / 60, 1))} min",
     ]
 
@@ -1100,7 +1101,7 @@ def v_selection_ge7(doc: Doc) -> str:
 
 
 def t_conditioned(doc: Doc) -> str:
-    """Each arm's fronts per seed and their mean: PGMORL-scale and project hypervolume,
+    """Each arm's fronts per seed and their mean: morl-baselines' and the project's hypervolume,
     expected utility, non-dominated count, order, the ends, budget and wall time."""
     path = f"{R['conditioned']}/summary.json"
     d = load(path)
@@ -1118,7 +1119,7 @@ def t_conditioned(doc: Doc) -> str:
                 [
                     doc.link(label, path) if seed in ("0", "mean") else label,
                     seed,
-                    f"{r['hv_pgmorl'] / 1e6:.2f}e6",
+                    sci(r["hv_morl_baselines"]),
                     f"{r['hv_project'] / 1e6:.2f}e6",
                     num(r["expected_utility"]),
                     num(r["nondominated"], 1 if seed == "mean" else 0),
@@ -1129,7 +1130,7 @@ def t_conditioned(doc: Doc) -> str:
                     num(r["wall_s"]),
                 ]
             )
-    head = ["front", "seed", "HV (PGMORL scale)", "HV (project)", "EU", "non-dom."]
+    head = ["front", "seed", "HV (morl-baselines)", "HV (project)", "EU", "non-dom."]
     head += ["Spearman", "`[1, 0]` m/s", "`[0, 1]` control", "train env steps", "wall s"]
     return md(head, rows, "llrrrrrrrrr")
 
@@ -1142,7 +1143,7 @@ def sci(x: float) -> str:
 
 def t_mo_mujoco(doc: Doc) -> str:
     """The MuJoCo suite's fronts (`mo_mujoco.py table`'s `table.json`): per task and
-    scalarization, both hypervolume conventions, EU, the non-dominated count, the
+    scalarization, morl-baselines' hypervolume, EU, the non-dominated count, the
     forward end's speed against the PPO reference's, and the wall times."""
     path = f"{R['mo_mujoco']}/table.json"
     rows = []
@@ -1153,7 +1154,6 @@ def t_mo_mujoco(doc: Doc) -> str:
                 r["scalarization"],
                 f"{r['n_prefs']} x {num(r['env_steps_per_pref'])}",
                 sci(r["hv_morl_baselines"]),
-                sci(r["hv_pgmorl"]),
                 num(r["expected_utility"], 1),
                 str(r["nondominated"]),
                 num(r["forward_end_mean_x_velocity"], 2),
@@ -1164,26 +1164,10 @@ def t_mo_mujoco(doc: Doc) -> str:
                 num(r.get("wall_ratio"), 2),
             ]
         )
-    head = ["task", "direction", "P x steps", "HV (morl-baselines)", "HV (PGMORL)", "EU"]
+    head = ["task", "direction", "P x steps", "HV (morl-baselines)", "EU"]
     head += ["non-dom.", "forward end m/s", "PPO m/s", "speed ratio", "wall s", "PPO wall s"]
     head += ["wall ratio"]
-    return md(head, rows, "lllrrrrrrrrrr")
-
-
-def t_mo_mujoco_published(doc: Doc) -> str:
-    """The published hypervolumes set beside the suite's tasks (`published.json`), one
-    row per published task, one column per method."""
-    path = f"{R['mo_mujoco']}/published.json"
-    entries = [p for p in load(path) if p["metric"] == "HV"]
-    methods = list(dict.fromkeys(p["method"] for p in entries))
-    tasks = list(dict.fromkeys((p["task"], p["ours"]) for p in entries))
-    value = {(p["task"], p["method"]): p["value"] for p in entries}
-    rows = [
-        [doc.link(task, path), f"`{ours}`"]
-        + [sci(value[(task, m)]) if (task, m) in value else "–" for m in methods]
-        for task, ours in tasks
-    ]
-    return md(["published task", "ours", *methods], rows, "ll" + "r" * len(methods))
+    return md(head, rows, "lllrrrrrrrrr")
 
 
 def t_mo_mujoco_seeds(doc: Doc) -> str:
@@ -1193,7 +1177,6 @@ def t_mo_mujoco_seeds(doc: Doc) -> str:
     path = f"{R['mo_mujoco']}/table.json"
     names = {
         "hv_morl_baselines": ("HV (morl-baselines)", sci),
-        "hv_pgmorl": ("HV (PGMORL)", sci),
         "forward": ("forward end m/s", lambda x: num(x, 2)),
     }
     rows = []
@@ -1260,13 +1243,6 @@ def t_conditioned_cost(doc: Doc) -> str:
     return md(head, rows, "lrrrr")
 
 
-def t_conditioned_published(doc: Doc) -> str:
-    path = f"{R['conditioned']}/summary.json"
-    pub = load(path)["published_hv_3M"]
-    rows = [[doc.link(k, path), f"{v / 1e6:.2f}e6"] for k, v in pub.items()]
-    return md(["method (3M env steps, published)", "HV (PGMORL scale)"], rows, "lr")
-
-
 def t_mo_gymnasium_eval(doc: Doc) -> str:
     """Per task family, the MO-Gymnasium evaluation of one run against the project's
     (`evaluation_mo_gymnasium.json`'s `agreement`): the largest difference of mean
@@ -1306,6 +1282,105 @@ def _protocol_hv(score: dict | None) -> str:
     if score is None or any("preferences" in d for d in score["deviations"]):
         return "–"
     return f"{sci(score['mo_gymnasium']['hv'])} / {sci(score['project']['hv'])}"
+
+
+def _published(row: dict, method: str) -> dict | None:
+    return next((p for p in row["published"] if p["method"] == method), None)
+
+
+def t_field(doc: Doc, short: bool = False) -> str:
+    """The field's protocols (`field.py table`'s `table.json`): per protocol and task our
+    protocol HV (mean and 95% Student-t interval over the seeds), PGMORL's published
+    number (the floor), the best published one and our mean's ratio to it with its
+    interval, the env steps trained and evaluated, and the wall time per seed. `short`:
+    the task, the HV, the best published number and the ratio."""
+    path = f"{R['field']}/table.json"
+    rows = []
+    for r in load(path)["rows"]:
+        hv, best = r["hv"], r["best_published"]
+        pgmorl = _published(r, "PGMORL")
+        seeds = ", ".join(str(s["seed"]) for s in r["seeds"])
+        ours = f"{sci(hv['mean'])} [{sci(hv['ci95'][0])}, {sci(hv['ci95'][1])}]"
+        if len(r["seeds"]) == 1:
+            ours = sci(hv["mean"])
+        ratio = "none published"
+        if best is not None:
+            lo, hi = r["ratio_ci95"]
+            ratio = num(r["ratio_to_best"], 2) + (
+                f" [{num(lo, 2)}, {num(hi, 2)}]" if len(r["seeds"]) > 1 else ""
+            )
+        best_cell = "–" if best is None else f"{best['method']} {sci(best['hv'])}"
+        task = doc.link(f"`{r['task']}`", path)
+        walls = [s["wall_s"] for s in r["seeds"]]
+        if short:
+            against = "no published number" if best is None else f"{best_cell}: {ratio}"
+            rows.append([r["protocol"], f"{task} {sci(hv['mean'])} ({against}; seeds {seeds})"])
+            continue
+        rows.append(
+            [
+                r["protocol"],
+                task,
+                r["published_task"],
+                seeds,
+                ours,
+                "–" if pgmorl is None else sci(pgmorl["hv"]),
+                best_cell,
+                ratio,
+                num(r["seeds"][0]["env_steps_trained"]),
+                num(r["seeds"][0]["eval_env_steps"]),
+                f"{num(min(walls))}–{num(max(walls))}" if len(walls) > 1 else num(walls[0]),
+            ]
+        )
+    if short:  # one row per protocol
+        merged = {}
+        for protocol, cell in rows:
+            merged.setdefault(protocol, []).append(cell)
+        rows = [[p, "; ".join(cells)] for p, cells in merged.items()]
+        return md(["protocol", "task: our mean HV (best published: ratio; seeds)"], rows, "ll")
+    head = ["protocol", "task", "published as", "seeds", "HV mean [95%]", "PGMORL"]
+    head += ["best published", "ratio [95%]", "env steps trained", "eval env steps"]
+    head += ["wall s per seed"]
+    return md(head, rows, "llllrrrrrrr")
+
+
+def t_field_ablation(doc: Doc) -> str:
+    """The ablation (`field.py ablation-table`'s `ablation.json`): per task and variant
+    its changes from the conditioned update's defaults, the seeds, the HV's mean and
+    interval, and its ratio to the `default` variant on the seeds both ran."""
+    path = f"{R['field']}/ablation.json"
+    rows = []
+    for r in load(path)["rows"]:
+        hv = r["hv"]
+        changes = ", ".join(f"{k}={_value(v)}" for k, v in r["changes"].items()) or "–"
+        ours = sci(hv["mean"])
+        if len(r["seeds"]) > 1:
+            ours += f" [{sci(hv['ci95'][0])}, {sci(hv['ci95'][1])}]"
+        ratio = "–"
+        if r["ratio_to_default"] is not None:
+            paired = ", ".join(map(str, r["paired_seeds"]))
+            ratio = f"{num(r['ratio_to_default'], 2)} (seeds {paired})"
+        rows.append(
+            [
+                r["protocol"],
+                doc.link(f"`{r['task']}`", path),
+                f"`{r['variant']}`",
+                changes,
+                ", ".join(str(s["seed"]) for s in r["seeds"]),
+                ours,
+                ratio,
+                ", ".join(num(s["wall_s"]) for s in r["seeds"]),
+            ]
+        )
+    head = ["protocol", "task", "variant", "changes", "seeds", "HV mean [95%]"]
+    head += ["vs default (same seeds)", "wall s"]
+    return md(head, rows, "llllrrrr")
+
+
+def _value(v) -> str:
+    """A configuration value as a flag takes it: `(3, 81920)` as `3,81920`."""
+    if isinstance(v, list | tuple):
+        return ",".join(str(x) for x in v)
+    return str(v)
 
 
 TABLES: dict[str, Callable[[Doc], str]] = {
@@ -1393,11 +1468,12 @@ TABLES: dict[str, Callable[[Doc], str]] = {
     "kuairand_truth": lambda doc: kuairand(doc, "kuairand", "truth"),
     "kuairand_unified": t_kuairand_unified,
     "conditioned": t_conditioned,
-    "conditioned_published": t_conditioned_published,
     "conditioned_cost": t_conditioned_cost,
     "mo_mujoco": t_mo_mujoco,
     "mo_gymnasium_eval": t_mo_gymnasium_eval,
-    "mo_mujoco_published": t_mo_mujoco_published,
+    "field": lambda doc: t_field(doc),
+    "field_glance": lambda doc: t_field(doc, short=True),
+    "field_ablation": t_field_ablation,
     "mo_mujoco_seeds": t_mo_mujoco_seeds,
     "mo_mujoco_seed_prefs": t_mo_mujoco_seed_prefs,
     "kuairand_paper_scale_unified": lambda doc: t_kuairand_unified(doc, "kuairand_paper_scale"),

@@ -10,11 +10,11 @@ Arms, each a command-line sweep per seed:
       read from `--reuse-9x1m` (the committed `cli_default_front_select5`) when its seeds
       are there.
 
-For every front: the PGMORL-scale hypervolume (points `(R0, R1 + 4 L)` from the
-undiscounted returns and the episode length `L`, i.e. PGMORL's objectives `sum(v_x + 1)`
-and `sum(5 - |a|^2)` less the one alive bonus v5 withholds on a falling step, reference
-point the origin), the project's own hypervolume and expected utility (`front.json`),
-the non-dominated count, Spearman's rank correlation between
+For every front: the hypervolume under morl-baselines' convention (the discounted
+returns at gamma 0.99, reference -100 per objective, as C-MORL's protocol scores the v5
+tasks; no published front of Walker2d v5 exists to set beside it), the project's own
+hypervolume and expected utility (`front.json`), the non-dominated count, Spearman's rank
+correlation between
 `p0` and the forward return, and the forward end's speed and length and the control
 end's control return. Then the cost of more front points: the seed-0 network evaluated
 at 9, 33 and 101 preferences (its env steps and seconds) against P independent policies.
@@ -38,17 +38,10 @@ import time
 
 import numpy as np
 import walker2d_common
-from mo_mujoco import pgmorl_returns
 from script_io import fail, finish_out, make_out
 
-# COLA (NeurIPS 2025) Table 1, Walker2d at 3M env steps: the hypervolume on this scale
-PUBLISHED_HV = {
-    "COLA": 4.87e6,
-    "PGMORL": 4.50e6,
-    "Envelope-SAC": 4.47e6,
-    "Q-Pensieve": 4.37e6,
-    "CAPQL": 3.35e6,
-}
+# morl-baselines' (and C-MORL's) convention: discounted returns, reference per objective
+MORL_BASELINES_REF = -100.0
 ARMS = {
     "conditioned": ["--conditioned", "--total-steps", "3000000", "--eval-prefs", "33"],
     "independent_9x333k": ["--n-prefs", "9", "--steps-per-pref", "333334"],
@@ -82,7 +75,9 @@ def front_metrics(front: dict) -> dict:
     cond = front.get("conditioned", {})
     return {
         "n_prefs": len(rows),
-        "hv_pgmorl": pareto.hypervolume(pgmorl_returns("walker2d", front), [0.0, 0.0]),
+        "hv_morl_baselines": pareto.hypervolume(
+            np.array([r["discounted_return"] for r in rows]), [MORL_BASELINES_REF] * 2
+        ),
         "hv_project": front["hypervolume"],
         "expected_utility": front["expected_utility"],
         "nondominated": int(sum(r["nondominated"] for r in rows)),
@@ -202,7 +197,6 @@ def summarize(out: str, reuse_9x1m: str | None, cost: list | None) -> dict:
         for arm, runs in per_run.items()
     }
     summary = {
-        "published_hv_3M": PUBLISHED_HV,
         "runs": per_run,
         "means": means,
         "reused_9x1M": reuse_9x1m if "independent_9x1M" in fronts else None,
@@ -216,7 +210,7 @@ def summarize(out: str, reuse_9x1m: str | None, cost: list | None) -> dict:
 
 def markdown(summary: dict) -> str:
     cols = [
-        ("hv_pgmorl", "PGMORL-scale HV", "{:.3e}"),
+        ("hv_morl_baselines", "HV (morl-baselines)", "{:.3e}"),
         ("hv_project", "project HV", "{:.3e}"),
         ("expected_utility", "EU", "{:.0f}"),
         ("nondominated", "non-dom.", "{:.0f}"),
@@ -237,10 +231,6 @@ def markdown(summary: dict) -> str:
         cells = [fmt.format(m[k]) if k in m else "" for k, _, fmt in cols]
         lines.append(f"| {arm} | mean | " + " | ".join(cells) + " |")
     lines.append("")
-    lines.append(
-        "Published (COLA, NeurIPS 2025, Table 1; Walker2d, 3M env steps): "
-        + ", ".join(f"{k} {v:.3g}" for k, v in summary["published_hv_3M"].items())
-    )
     for row in summary.get("cost_growth", []):
         lines.append(
             f"- {row['eval_prefs']} preferences: {row['eval_env_steps']:,} evaluation env "

@@ -1,6 +1,8 @@
 """The MO-Gymnasium MuJoCo suite: each task's front with smooth_wc and with linear at the
 task's default budget, a single-objective PPO reference per task, and the table that sets
-them beside each other and beside the published numbers.
+them beside each other. The published numbers are set beside fronts trained under the
+field's own protocols, on the same task definitions (`experiments/field.py`), not here:
+these fronts train other budgets than the field's.
 
 Three commands, each writing under `--results` (default `experiments/results/mo_mujoco`):
 
@@ -24,14 +26,11 @@ Three commands, each writing under `--results` (default `experiments/results/mo_
 - `table`: reads every committed `front.json` and `reference_ppo.json` under
   `--results` and writes `table.md` and `table.json` (`summarize`, `write_table`): per
   task and scalarization the hypervolume under morl-baselines' convention (discounted
-  returns, gamma 0.99, reference -100 per objective) and PGMORL's (undiscounted returns,
-  reference at the origin, PGMORL's objective definitions where they map onto v5's:
-  `PGMORL_MAPPING`), expected utility, the non-dominated count, the forward end's mean
-  speed against the reference's, wall times, and the published numbers of
-  `<results>/published.json` beside them (each with its source and how its definitions
-  and budget differ). Where a task has both scalarizations' fronts on 3 or more seeds
+  returns, gamma 0.99, reference -100 per objective), expected utility, the
+  non-dominated count, the forward end's mean speed against the reference's, and wall
+  times. Where a task has both scalarizations' fronts on 3 or more seeds
   (`<env>/<S>/` and `<env>/seed<N>/<S>/`), `seeds` sets them side by side (`compare_seeds`):
-  each seed's hypervolume under both conventions, and a winner only where the two
+  each seed's hypervolume, and a winner only where the two
   scalarizations' seed ranges do not overlap; per preference, each objective's mean
   return over the seeds, to say where on the front they differ. The seeds must share
   one setting (their `config.json` but for seed and scalarization): a task whose seeds
@@ -77,39 +76,6 @@ BUDGET = {env: 1_000_000 for env in SINGLE_OBJECTIVE} | {"humanoid": 3_000_000}
 EPISODE_LENGTH = 500
 MORL_BASELINES_GAMMA = 0.99
 MORL_BASELINES_REF = -100.0
-# PGMORL's objectives as v5's plus a constant per step, where they map (their models,
-# health rules and action clipping differ besides): (per-step offsets, or None where an
-# objective is scaled differently and does not map, and what differs)
-PGMORL_MAPPING = {
-    "walker2d": ((0.0, 4.0), "energy = 4 - sum a^2 + 1: v5's control + 4 per step"),
-    "halfcheetah": (
-        (1.0, 5.0),
-        "forward = min(4, v) + 1 (capped at 4 m/s there, not here); energy = 4 - sum a^2 "
-        "+ 1: v5's control + 5 per step",
-    ),
-    "hopper": (
-        (None, None, 4.0),
-        "forward 1.5 v + 1 and height 12 dz + 1 are scaled differently (v5's as is); "
-        "energy = 4 - sum a^2 + 1: v5's control + 4 per step",
-    ),
-    "hopper-2obj": (
-        (None, None),
-        "forward 1.5 v and height 12 dz, each + 1 - 2e-4 sum a^2: scaled differently (v5's as is)",
-    ),
-    "swimmer": (
-        (None, None),
-        "energy = 0.3 - 0.15 sum a^2: scaled differently (v5's as is)",
-    ),
-    "ant-2obj": (
-        (0.0, 0.0),
-        "x and y speed - 0.5 sum a^2 + 1 as v5's, but without v5's contact cost",
-    ),
-    "ant": ((None, None, None), "PGMORL has no 3-objective ant (v5's as is)"),
-    "humanoid": (
-        (None, None),
-        "forward 1.25 v + 3 and energy 3 - 4 sum a^2 + 3: scaled differently (v5's as is)",
-    ),
-}
 
 
 # ---------------------------------------------------------------------- fronts
@@ -244,20 +210,6 @@ def _forward_end(front: dict) -> dict:
     return max(front["prefs"], key=lambda row: (row["pref"][0], -sum(row["pref"][1:])))
 
 
-def pgmorl_returns(env: str, front: dict):
-    """`[P, m]` undiscounted returns with PGMORL's per-step offsets added where its
-    objectives map onto v5's (`PGMORL_MAPPING`; v5's as is elsewhere)."""
-    import numpy as np
-
-    returns = np.array([row["return"] for row in front["prefs"]], dtype=np.float64)
-    lengths = np.array([row["episode_length"] for row in front["prefs"]], dtype=np.float64)
-    offsets = PGMORL_MAPPING.get(env, ((None,) * returns.shape[1], ""))[0]
-    for j, c in enumerate(offsets):
-        if c is not None:
-            returns[:, j] += c * lengths
-    return returns
-
-
 def summarize_front(env: str, front: dict, reference: dict | None) -> dict:
     """One row of the table from a `front.json` (and the task's PPO reference).
 
@@ -279,7 +231,6 @@ def summarize_front(env: str, front: dict, reference: dict | None) -> dict:
         "env_steps_per_pref": front["env_steps_per_pref"],
         "gamma": gamma,
         "hv_morl_baselines": pareto.hypervolume(disc, [MORL_BASELINES_REF] * m),
-        "hv_pgmorl": pareto.hypervolume(pgmorl_returns(env, front), [0.0] * m),
         "expected_utility": front["expected_utility"],
         "nondominated": front["cardinality"],
         "forward_end_pref": end["pref"],
@@ -374,7 +325,7 @@ def compare_seeds(results: str, env: str) -> dict | None:
     return {
         "seeds": seeds,
         "prefs": prefs,
-        "hypervolume": {k: side_by_side(k) for k in ("hv_morl_baselines", "hv_pgmorl")},
+        "hypervolume": {"hv_morl_baselines": side_by_side("hv_morl_baselines")},
         "forward_speed": side_by_side("forward_end_mean_x_velocity"),
         "mean_return": {
             s: np.mean([[row["return"] for row in f["prefs"]] for f in fronts[s]], axis=0).tolist()
@@ -384,7 +335,7 @@ def compare_seeds(results: str, env: str) -> dict | None:
 
 
 def summarize(results: str) -> dict:
-    """Every task's rows (one per scalarization found) and the published numbers."""
+    """Every task's rows (one per scalarization found) and their seeds compared."""
     rows = []
     for env in sorted(os.listdir(results)) if os.path.isdir(results) else []:
         reference = _load(os.path.join(results, env, "reference_ppo.json"))
@@ -392,20 +343,15 @@ def summarize(results: str) -> dict:
             front = _load(os.path.join(results, env, scal, "front.json"))
             if front is not None:
                 rows.append(summarize_front(env, front, reference))
-    published = _load(os.path.join(results, "published.json")) or []
     envs = sorted({row["env"] for row in rows})
     seeds = {env: c for env in envs if (c := compare_seeds(results, env)) is not None}
     return {
         "conventions": {
             "hv_morl_baselines": f"discounted returns (gamma {MORL_BASELINES_GAMMA}), "
             f"reference {MORL_BASELINES_REF} per objective",
-            "hv_pgmorl": "undiscounted returns, reference at the origin, PGMORL's "
-            "objective definitions where they map onto v5's",
         },
-        "pgmorl_mapping": {env: note for env, (_, note) in PGMORL_MAPPING.items()},
         "rows": rows,
         "seeds": seeds,
-        "published": published,
     }
 
 
@@ -419,7 +365,7 @@ def _fmt(x, spec: str = ".4g") -> str:
 
 def seed_lines(seeds: dict) -> list[str]:
     """table.md's section of `compare_seeds`, task by task."""
-    names = {"hv_morl_baselines": "HV (morl-baselines)", "hv_pgmorl": "HV (PGMORL)"}
+    names = {"hv_morl_baselines": "HV (morl-baselines)"}
     lines = ["", "## smooth_wc against linear over seeds", ""]
     if not seeds:
         return lines + [f"No task has both fronts on {MIN_SEEDS} or more seeds yet."]
@@ -458,54 +404,38 @@ def seed_lines(seeds: dict) -> list[str]:
 def write_table(summary: dict, results: str) -> None:
     """`table.md` and `table.json` under `results`."""
     lines = [
-        "# The MO-Gymnasium MuJoCo suite: fronts, PPO references and published numbers",
+        "# The MO-Gymnasium MuJoCo suite: fronts and PPO references",
         "",
         "Written by `python experiments/mo_mujoco.py table` from the `front.json` and "
         "`reference_ppo.json` files beside this table.",
         "",
         f"- HV (morl-baselines): {summary['conventions']['hv_morl_baselines']}.",
-        f"- HV (PGMORL): {summary['conventions']['hv_pgmorl']}.",
         "- speed ratio: the forward end's mean x velocity over the PPO reference's; wall "
         "ratio: the front's wall time over P x the reference's / 1.5 (below 1: the front "
         "in one program beats P separate PPO runs by the margin).",
         "",
-        "| task | scalarization | P | steps/pref | gamma | HV (morl-baselines) | HV (PGMORL) "
+        "| task | scalarization | P | steps/pref | gamma | HV (morl-baselines) "
         "| EU | non-dominated | forward end | its speed (m/s) | PPO speed (m/s) | speed "
         "ratio | wall (s) | PPO wall (s) | wall ratio |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in summary["rows"]:
         lines.append(
             f"| {r['env']} | {r['scalarization']} | {r['n_prefs']} "
             f"| {r['env_steps_per_pref']:,} | {_fmt(r['gamma'])} "
-            f"| {_fmt(r['hv_morl_baselines'])} | {_fmt(r['hv_pgmorl'])} "
+            f"| {_fmt(r['hv_morl_baselines'])} "
             f"| {_fmt(r['expected_utility'])} | {r['nondominated']} "
             f"| {_fmt(r['forward_end_pref'])} | {_fmt(r['forward_end_mean_x_velocity'], '.3f')} "
             f"| {_fmt(r.get('reference_mean_x_velocity'), '.3f')} "
             f"| {_fmt(r.get('speed_ratio'), '.2f')} | {_fmt(r['wall_s'], '.0f')} "
             f"| {_fmt(r.get('reference_wall_s'), '.0f')} | {_fmt(r.get('wall_ratio'), '.2f')} |"
         )
-    lines += ["", "PGMORL's objectives against v5's:", ""]
-    lines += [f"- {env}: {note}" for env, note in summary["pgmorl_mapping"].items()]
     lines += seed_lines(summary["seeds"])
-    lines += ["", "## Published numbers", ""]
-    if summary["published"]:
-        lines += [
-            "`ours`: the task of this suite each number is set beside. A value whose "
-            "`checked` is not true in `published.json` is flagged as not read in its source.",
-            "",
-            "| task | ours | method | metric | value | source | how it differs from ours |",
-            "|---|---|---|---|---|---|---|",
-        ]
-        for p in summary["published"]:
-            # only a value read in its source goes unflagged
-            flag = "" if p.get("checked") is True else " (not read in the source)"
-            lines.append(
-                f"| {p['task']} | {p.get('ours', '-')} | {p['method']} | {p['metric']} "
-                f"| {_fmt(p['value'])}{flag} | {p['source']} | {p['differs']} |"
-            )
-    else:
-        lines.append("None entered yet (`published.json`, each with its source).")
+    lines += [
+        "",
+        "Published numbers: beside fronts trained under the field's protocols on the same "
+        "task definitions, in `experiments/results/field/` (`experiments/field.py`).",
+    ]
     from wcac_jax.outputs import write_atomic
 
     os.makedirs(results, exist_ok=True)

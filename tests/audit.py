@@ -22,10 +22,7 @@ pairs for the files its numbers feed; a check scores the fronts under a `Convent
            V5_TASKS, (("field/cmorl/table.json", check_field_table),))
 
 A front that no family claims, or a generated block of the documents that no entry of
-`DOC_TABLES` / `DOC_VALUES` names, is itself a finding. The suite table's "HV (PGMORL)"
-column is audited as it stands through `PGMORL_V5_COLUMN`, whose four uses say "the
-column as it stands": a column gone from the table or the docs is skipped, and those
-lines go with it.
+`DOC_TABLES` / `DOC_VALUES` names, is itself a finding.
 """
 
 from __future__ import annotations
@@ -270,26 +267,6 @@ C_MORL = MORL_BASELINES
 # PGMORL's and COLA's: undiscounted, reference at the origin, so a point with a negative
 # objective adds nothing.
 PGMORL = Convention("PGMORL", False, 0.0)
-# The docs' PGMORL scale for Walker2d: PGMORL's energy objective is `4 - sum a^2 + 1` per
-# step (its environments/walker2d.py, the alive bonus paid on every step), v5's control
-# `-sum a^2 + healthy` (MO-Gymnasium's walker2d_v5, healthy 0 on a falling step): v5's
-# plus 4 per step, less one bonus per fall.
-PGMORL_WALKER2D = Convention("PGMORL scale", False, 0.0, offsets={"walker2d": (0.0, 4.0)})
-# The suite table's "HV (PGMORL)" column as it stands: PGMORL's per-step offsets where
-# its objectives map onto v5's (HalfCheetah's forward uncapped). One entry: delete it
-# with the column.
-PGMORL_V5_COLUMN = Convention(
-    "PGMORL (v5 column)",
-    False,
-    0.0,
-    offsets={
-        "walker2d": (0.0, 4.0),
-        "halfcheetah": (1.0, 5.0),
-        "hopper": (None, None, 4.0),
-        "ant-2obj": (0.0, 0.0),
-    },
-)
-
 
 # ---------------------------------------------------------------------- findings
 
@@ -633,7 +610,7 @@ def check_published(where: str, entries: list) -> Findings:
 
 def check_conditioned(repo: Repo, rel: str) -> Findings:
     """`conditioned_front.py`'s summary: each arm and seed from its `front.json`, the
-    means, the published numbers and the cost of more front points."""
+    means and the cost of more front points."""
     s, out = repo.json(rel), Findings()
     base = os.path.dirname(rel)
     dirs = {
@@ -653,7 +630,7 @@ def check_conditioned(repo: Repo, rel: str) -> Findings:
             w = f"{rel} {arm} seed {seed}"
             fwd, ctrl = f.forward, f.control
             out.equal(f"{w} n_prefs", r["n_prefs"], len(f.prefs))
-            out.close(f"{w} hv_pgmorl", r["hv_pgmorl"], PGMORL_WALKER2D.hv(f))
+            out.close(f"{w} hv_morl_baselines", r["hv_morl_baselines"], MORL_BASELINES.hv(f))
             out.close(f"{w} hv_project", r["hv_project"], f.hv((-500.0, -3000.0)))
             out.close(
                 f"{w} expected_utility",
@@ -675,9 +652,8 @@ def check_conditioned(repo: Repo, rel: str) -> Findings:
         for key, mean in s["means"][arm].items():
             values = [r[key] for r in runs.values() if r[key] is not None]
             out.close(f"{rel} {arm} mean {key}", mean, float(np.mean(values)))
-    walker = COLA_TABLE_1["Walker-2d"]
-    named = {m.replace("Envelope SAC", "Envelope-SAC"): v[0][0] for m, v in walker.items()}
-    out.equal(f"{rel} published_hv_3M", s["published_hv_3M"], named)
+    if "published_hv_3M" in s:  # PGMORL's walker is another robot: no number beside v5's
+        out.append(f"{rel}: sets published numbers of another task beside its fronts")
     return out
 
 
@@ -709,7 +685,7 @@ def forward_row(f: Front) -> dict:
 def check_mo_mujoco(repo: Repo, rel: str) -> Findings:
     """`mo_mujoco.py table`'s `table.json`: per task and direction (seed 0) from its
     `front.json` and the task's PPO reference; per task with seeds, each seed's and the
-    mean's numbers and the winner; the published numbers."""
+    mean's numbers and the winner."""
     s, out = repo.json(rel), Findings()
     base = os.path.dirname(rel)
     rows = {(r["env"], r["scalarization"]): r for r in s["rows"]}
@@ -724,8 +700,8 @@ def check_mo_mujoco(repo: Repo, rel: str) -> Findings:
         out.equal(f"{w} n_prefs", r["n_prefs"], len(f.prefs))
         out.equal(f"{w} env_steps_per_pref", r["env_steps_per_pref"], f.data["env_steps_per_pref"])
         out.close(f"{w} hv_morl_baselines", r["hv_morl_baselines"], MORL_BASELINES.hv(f))
-        if "hv_pgmorl" in r:  # the column as it stands
-            out.close(f"{w} hv_pgmorl", r["hv_pgmorl"], PGMORL_V5_COLUMN.hv(f))
+        if "hv_pgmorl" in r:  # PGMORL's tasks are other tasks: no such column on v5's
+            out.append(f"{w}: an HV (PGMORL) of a v5 front")
         out.close(
             f"{w} expected_utility",
             r["expected_utility"],
@@ -755,8 +731,8 @@ def check_mo_mujoco(repo: Repo, rel: str) -> Findings:
         )
     for env, c in s["seeds"].items():
         out.extend(check_mo_mujoco_seeds(repo, f"{rel} seeds {env}", f"{base}/{env}", c))
-    out.equal(f"{rel} published", s["published"], repo.json(f"{base}/published.json"))
-    out.extend(check_published(f"{base}/published.json", repo.json(f"{base}/published.json")))
+    if "published" in s:  # published numbers stand beside the field's protocols only
+        out.append(f"{rel}: sets published numbers beside fronts of other budgets")
     return out
 
 
@@ -783,7 +759,6 @@ def check_mo_mujoco_seeds(repo: Repo, where: str, task: str, c: dict) -> Finding
     }
     measures = {
         "hv_morl_baselines": MORL_BASELINES.hv,
-        "hv_pgmorl": PGMORL_V5_COLUMN.hv,  # the column as it stands
         "forward": lambda f: forward_row(f)["mean_x_velocity"],
     }
     entries = {**c["hypervolume"], "forward": c["forward_speed"]}
@@ -1332,7 +1307,7 @@ def conditioned_fronts(repo: Repo, summary: str) -> dict[str, dict[int, Front]]:
 
 def conditioned_row(f: Front) -> list:
     return [
-        PGMORL_WALKER2D.hv(f),
+        MORL_BASELINES.hv(f),
         f.hv(WALKER2D["walker2d"]),
         expected_utility(f.returns, front_json_weights(2)),
         f.nd.sum(),
@@ -1388,15 +1363,6 @@ def conditioned_cost_wants(t: Table, repo: Repo) -> Iterator:
         yield i, "P independent x 1M: s (extrapolated)", [p * wall_pp]
 
 
-def conditioned_published_wants(t: Table, repo: Repo) -> Iterator:
-    walker = {
-        m.replace("Envelope SAC", "Envelope-SAC"): v for m, v in COLA_TABLE_1["Walker-2d"].items()
-    }
-    for i, row in enumerate(t.rows):
-        yield i, t.header[0], None
-        yield i, t.header[1], [walker[row[0]][0][0]]
-
-
 def suite_front(t: Table, i: int, repo: Repo) -> Front:
     env = t.rows[i][0].strip("`")
     return repo.front(f"{os.path.dirname(t.links[i][0])}/{env}/{t.rows[i][1]}/front.json")
@@ -1411,7 +1377,6 @@ def mo_mujoco_wants(t: Table, repo: Repo) -> Iterator:
         yield i, "direction", [f.data["config"]["train"]["scalarization"]]
         yield i, "P x steps", [n, f.data["env_steps_per_pref"]]
         yield i, "HV (morl-baselines)", [MORL_BASELINES.hv(f)]
-        yield i, "HV (PGMORL)", [PGMORL_V5_COLUMN.hv(f)]  # the column as it stands
         yield i, "EU", [expected_utility(f.returns, front_json_weights(f.returns.shape[1]))]
         yield i, "non-dom.", [f.nd.sum()]
         yield i, "forward end m/s", [v]
@@ -1424,7 +1389,6 @@ def mo_mujoco_wants(t: Table, repo: Repo) -> Iterator:
 
 SUITE_MEASURES = {
     "HV (morl-baselines)": MORL_BASELINES.hv,
-    "HV (PGMORL)": PGMORL_V5_COLUMN.hv,  # the column as it stands
     "forward end m/s": lambda f: forward_row(f)["mean_x_velocity"],
 }
 
@@ -1463,14 +1427,6 @@ def mo_mujoco_seed_prefs_wants(t: Table, repo: Repo) -> Iterator:
         yield i, "preference", list(fronts["smooth_wc"][0].prefs[j])
         for d in fronts:
             yield i, f"{d} mean return", list(np.mean([f.returns[j] for f in fronts[d]], axis=0))
-
-
-def mo_mujoco_published_wants(t: Table, repo: Repo) -> Iterator:
-    for i, row in enumerate(t.rows):
-        yield i, "published task", None
-        yield i, "ours", None
-        for method in t.header[2:]:
-            yield i, method, [COLA_TABLE_1[row[0]][method][0][0]]
 
 
 def fronts_wall_wants(t: Table, repo: Repo) -> Iterator:
@@ -1515,7 +1471,7 @@ def glance_wants(t: Table, repo: Repo) -> Iterator:
         elif row[0] == "`walker2d --conditioned`":
             by_seed = conditioned_fronts(repo, links[0])["conditioned"]
             fronts = [by_seed[s] for s in sorted(by_seed)]
-            walker = COLA_TABLE_1["Walker-2d"]
+            nine = conditioned_fronts(repo, links[0])["independent_9x1M"]
             yield i, "`--env`", None
             yield i, "default", [len(fronts[0].prefs)]
             yield (
@@ -1523,9 +1479,8 @@ def glance_wants(t: Table, repo: Repo) -> Iterator:
                 "what the front achieves",
                 [
                     *sorted(by_seed),
-                    *(PGMORL_WALKER2D.hv(f) for f in fronts),
-                    walker["PGMORL"][0][0],
-                    walker["COLA"][0][0],
+                    *(MORL_BASELINES.hv(f) for f in fronts),
+                    float(np.mean([MORL_BASELINES.hv(f) for f in nine.values()])),
                     *fronts[0].prefs[fronts[0].forward],
                     *(f.speed(f.forward) for f in fronts),
                     *(f.rho for f in fronts),
@@ -1581,11 +1536,9 @@ DOC_TABLES: dict[str, Callable[[Table, Repo], Iterator] | str] = {
     "paper_fronts": paper_fronts_wants,
     "conditioned": conditioned_wants,
     "conditioned_cost": conditioned_cost_wants,
-    "conditioned_published": conditioned_published_wants,
     "mo_mujoco": mo_mujoco_wants,
     "mo_mujoco_seeds": mo_mujoco_seeds_wants,
     "mo_mujoco_seed_prefs": mo_mujoco_seed_prefs_wants,
-    "mo_mujoco_published": mo_mujoco_published_wants,
     "fronts_wall": fronts_wall_wants,
     "bench_cli": bench_cli_wants,
     "exploration_bandit": "exploration.json: scores of a problem with a known answer",

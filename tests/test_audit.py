@@ -97,7 +97,7 @@ def test_printed_numbers_are_read_with_their_precision():
 
 def test_conventions_by_hand():
     """morl-baselines' convention on the discounted returns from -100; PGMORL's from the
-    origin; the PGMORL scale adds 4 per step to Walker2d's control."""
+    origin."""
     rows = [
         {"pref": [1.0, 0.0], "return": [300.0, -50.0], "discounted_return": [50.0, -20.0]},
         {"pref": [0.0, 1.0], "return": [100.0, 90.0], "discounted_return": [10.0, 30.0]},
@@ -109,8 +109,6 @@ def test_conventions_by_hand():
     assert audit.MORL_BASELINES.hv(f) == pytest.approx(150 * 80 + 110 * 50)
     # from the origin only (100, 90) counts
     assert audit.PGMORL.hv(f) == pytest.approx(100 * 90)
-    # (300, 350) and (100, 490): 300 x 350 + 100 x 140
-    assert audit.PGMORL_WALKER2D.hv(f) == pytest.approx(300 * 350 + 100 * 140)
     # C-MORL's EU: weights (w, 1 - w) in steps of 0.01 over the discounted returns
     w = np.linspace(0, 1, 101)
     want = np.mean(np.maximum(50 * w - 20 * (1 - w), 10 * w + 30 * (1 - w)))
@@ -181,19 +179,18 @@ def test_plant_a_return_changed(tmp_path):
         rf"{CLI} hypervolume: states",
         rf"{CLI} sparsity",
         r"docs/results.md table cli_default row 0 'HV, stated ref'",
-        r"conditioned_walker2d/summary.json independent_9x1M seed 0 hv_pgmorl",
+        r"conditioned_walker2d/summary.json independent_9x1M seed 0 hv_project",
     )
 
 
 def test_plant_a_length_changed(tmp_path):
-    """The conditioned network's `[1, 0]` mean length 500 -> 490 (seed 0): its speed, its
-    PGMORL-scale hypervolume and its evaluation's env steps no longer follow."""
+    """The conditioned network's `[1, 0]` mean length 500 -> 490 (seed 0): its speed and
+    its evaluation's env steps no longer follow."""
     root = _copy(tmp_path)
     _edit_json(root, COND, lambda d: d["prefs"][0].update(episode_length=490.0))
     _fails(
         root,
         r"conditioned seed 0 forward_end_length",
-        r"conditioned seed 0 hv_pgmorl",
         rf"{COND} eval_env_steps",
         r"README.md table glance row 1 'what the front achieves'",
     )
@@ -230,22 +227,17 @@ def test_plant_a_reference_point_changed(tmp_path):
 
 
 def test_plant_a_published_number_changed(tmp_path):
-    """PGMORL's Walker2d hypervolume at 3M as the suite's file cites it, and as the README
-    prints it."""
+    """PGMORL's Hopper-2d hypervolume on C-MORL's protocol as the field's file cites it
+    (D3PO's table: 1.20e5)."""
     root = _copy(tmp_path)
 
-    def change(entries):
-        for p in entries:
-            if (p["task"], p["method"], p["metric"]) == ("Walker-2d", "PGMORL", "HV"):
-                p["value"] = 4.6e6
+    def change(d):
+        for p in d["entries"]:
+            if (p["protocol"], p["task"], p["method"]) == ("cmorl", "hopper-2obj", "PGMORL"):
+                p["hv"] = 1.30e5
 
-    _edit_json(root, f"{R}/mo_mujoco/published.json", change)
-    _fails(root, r"published.json \('Walker-2d', 'PGMORL', 'HV'\) value")
-    root = _copy(tmp_path / "again")
-    _edit_text(
-        root, "README.md", "(published at 3M: PGMORL [4.50e6]", "(published at 3M: PGMORL [4.60e6]"
-    )
-    _fails(root, r"README.md table glance row 1 'what the front achieves'")
+    _edit_json(root, f"{R}/field/published.json", change)
+    _fails(root, r"field/published.json .*hopper-2obj.*PGMORL")
 
 
 def test_plant_a_fronts_preference_order_swapped(tmp_path):
@@ -291,15 +283,15 @@ def test_plant_a_recommendation_value_changed(tmp_path):
 
 def test_plant_a_summary_number_changed(tmp_path):
     """The one summary without per-direction entries (the conditioned one) is audited, not
-    skipped: its seed-0 PGMORL-scale hypervolume 0.1% higher fails; so does a
+    skipped: its seed-0 hypervolume (morl-baselines) 0.1% higher fails; so does a
     walker2d_front.py summary emptied of its directions."""
     root = _copy(tmp_path)
 
     def change(d):
-        d["runs"]["conditioned"]["0"]["hv_pgmorl"] *= 1.001
+        d["runs"]["conditioned"]["0"]["hv_morl_baselines"] *= 1.001
 
     _edit_json(root, f"{R}/conditioned_walker2d/summary.json", change)
-    _fails(root, r"summary.json conditioned seed 0 hv_pgmorl")
+    _fails(root, r"summary.json conditioned seed 0 hv_morl_baselines")
     root = _copy(tmp_path / "again")
     summary = f"{R}/walker2d_front_practical_v5_e5x16/seed3/summary.json"
     _edit_json(root, summary, lambda d: d.update(directions={}))

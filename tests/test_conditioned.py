@@ -213,41 +213,6 @@ def _experiment():
 ROOT = os.path.join(os.path.dirname(__file__), os.pardir)
 
 
-def _walker_episode(action: float, steps: int):
-    """MO-Gymnasium's mo-walker2d-v5 under a constant action for at most `steps` steps:
-    its vector return, the length, and PGMORL's two objectives summed from the same steps'
-    raw quantities (its Walker2d: `v_x + 1` and `4 - |a|^2 + 1`, the action clipped)."""
-    import mo_gymnasium
-
-    env = mo_gymnasium.make("mo-walker2d-v5")
-    env.reset(seed=0)
-    a = np.full(env.action_space.shape, action)
-    ret, pgmorl, fell, n = np.zeros(2), np.zeros(2), False, 0
-    while n < steps and not fell:
-        _, r, fell, _, info = env.step(a)
-        ret, n = ret + r, n + 1
-        pgmorl += [info["x_velocity"] + 1.0, 5.0 - np.square(np.clip(a, -1, 1)).sum()]
-    env.close()
-    return ret, n, pgmorl, fell
-
-
-def test_pgmorl_scale_is_pgmorls_objectives_from_the_raw_steps():
-    """`pgmorl_returns` against PGMORL's definitions applied step by step to an episode of
-    the reference environment: equal where no episode falls; on a falling episode short by
-    exactly the one bonus v5 withholds on the falling step, on each objective."""
-    exp = _experiment()
-    ret, n, pgmorl, fell = _walker_episode(0.3, 60)
-    assert not fell and n == 60
-    front = {"prefs": [{"return": ret.tolist(), "episode_length": float(n)}]}
-    np.testing.assert_allclose(exp.pgmorl_returns("walker2d", front)[0], pgmorl, rtol=1e-5)
-    ret, n, pgmorl, fell = _walker_episode(0.3, 500)
-    assert fell and n < 500
-    front = {"prefs": [{"return": ret.tolist(), "episode_length": float(n)}]}
-    np.testing.assert_allclose(
-        pgmorl - exp.pgmorl_returns("walker2d", front)[0], [1.0, 1.0], atol=1e-4
-    )
-
-
 def test_front_metrics_by_hand():
     """A made-up front of three preferences (8 episodes each, time limit 500): every
     number of a summary row by hand. `[1, 0]` lasts 250 steps on average, so at most 3 of
@@ -257,9 +222,12 @@ def test_front_metrics_by_hand():
     exp = _experiment()
     rows = [([1.0, 0.0], [1000.0, -300.0], 250.0), ([0.5, 0.5], [600.0, 200.0], 500.0)]
     rows.append(([0.0, 1.0], [500.0, 480.0], 500.0))
+    discounted = [[300.0, -150.0], [200.0, 100.0], [150.0, 200.0]]
     front = {
         "prefs": [
-            {"pref": p, "return": r, "episode_length": n, "nondominated": True} for p, r, n in rows
+            {"pref": p, "return": r, "discounted_return": d, "episode_length": n}
+            | {"nondominated": True}
+            for (p, r, n), d in zip(rows, discounted, strict=True)
         ],
         "hypervolume": 1.0,
         "expected_utility": 2.0,
@@ -270,9 +238,10 @@ def test_front_metrics_by_hand():
         "config": {"env": "walker2d", "env_options": {}, "eval_episodes": 8},
     }
     m = exp.front_metrics(front)
-    # PGMORL scale: (1000, -300 + 1000), (600, 200 + 2000), (500, 480 + 2000); none
-    # dominates another: a staircase from (0, 0)
-    assert m["hv_pgmorl"] == pytest.approx(500 * 2480 + 100 * 2200 + 400 * 700)
+    # morl-baselines: the discounted points from (-100, -100); (300, -150) lies below the
+    # reference on the second objective and adds nothing; (200, 100) and (150, 200) make
+    # a staircase: 300 x 200 + 250 x 100
+    assert m["hv_morl_baselines"] == pytest.approx(300 * 200 + 250 * 100)
     assert m["nondominated"] == 3 and m["n_prefs"] == 3
     assert m["spearman_p0_forward"] == pytest.approx(1.0)
     assert m["forward_end_speed"] == pytest.approx((1000 - 250 + 0.8125) / 250)

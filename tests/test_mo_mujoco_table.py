@@ -46,29 +46,6 @@ def results(tmp_path):
         (task / scal / "front.json").write_text(json.dumps(front))
     reference = {"mean_x_velocity": 2.5, "wall_s": 10.0, "env_steps": 1000}
     (task / "reference_ppo.json").write_text(json.dumps(reference))
-    published = [
-        {
-            "task": "HalfCheetah-2d",
-            "ours": "halfcheetah",
-            "method": "M",
-            "metric": "HV",
-            "value": 1.0e6,
-            "source": "a paper, Table 1",
-            "differs": "v2 model",
-            "checked": True,
-        },
-        {
-            "task": "Hopper-3d",
-            "ours": "hopper",
-            "method": "N",
-            "metric": "EU",
-            "value": 3210.0,
-            "source": "another paper",
-            "differs": "as cited elsewhere",
-            "checked": False,
-        },
-    ]
-    (tmp_path / "published.json").write_text(json.dumps(published))
     return str(tmp_path)
 
 
@@ -78,7 +55,6 @@ def test_table_numbers_by_hand(results):
     row = summary["rows"][0]
     # discounted (50, -20), (5, -2) from (-100, -100): 150 * 80 + 105 * 18
     assert row["hv_morl_baselines"] == pytest.approx(12000 + 1890)
-    # the PGMORL column against PGMORL's own objectives: test_pgmorl_column_*
     assert row["forward_end_pref"] == [1.0, 0.0]
     assert row["forward_end_mean_x_velocity"] == 2.0
     assert row["speed_ratio"] == pytest.approx(0.8)
@@ -86,73 +62,12 @@ def test_table_numbers_by_hand(results):
     assert row["nondominated"] == 2 and row["expected_utility"] == 12.5
 
 
-def _halfcheetah_steps(action: float, steps: int):
-    """MO-Gymnasium's mo-halfcheetah-v5 under a constant action: its vector return, and
-    PGMORL's HalfCheetah objectives summed over the same steps from their raw quantities
-    (its environments/half_cheetah.py: `min(4, v_x) + 1` and `4 - |a|^2 + 1`, the action
-    clipped), and the fastest step's speed."""
-    import mo_gymnasium
-
-    env = mo_gymnasium.make("mo-halfcheetah-v5")
-    env.reset(seed=0)
-    a = np.full(env.action_space.shape, action)
-    ret, pgmorl, fastest = np.zeros(2), np.zeros(2), -np.inf
-    for _ in range(steps):
-        _, r, _, _, info = env.step(a)
-        v = info["x_velocity"]
-        ret += r
-        pgmorl += [min(4.0, v) + 1.0, 5.0 - np.square(np.clip(a, -1, 1)).sum()]
-        fastest = max(fastest, v)
-    env.close()
-    return ret, pgmorl, fastest
-
-
-def _one_point_row(ret, length: float) -> dict:
-    front = _front("smooth_wc", [list(ret), list(ret)], [[1.0, 1.0], [1.0, 1.0]], [1.0, 1.0])
-    for r in front["prefs"]:
-        r["episode_length"] = length
-    return mo_mujoco.summarize_front("halfcheetah", front, None)
-
-
-def test_pgmorl_column_is_pgmorls_objectives_below_the_speed_cap():
-    """A HalfCheetah episode of the reference environment that stays below 4 m/s: the
-    column's point is PGMORL's objectives summed step by step, so its hypervolume from
-    the origin is their product."""
-    ret, pgmorl, fastest = _halfcheetah_steps(0.5, 80)
-    assert 0.1 < fastest < 4.0
-    assert _one_point_row(ret, 80.0)["hv_pgmorl"] == pytest.approx(np.prod(pgmorl), rel=1e-5)
-
-
-def test_pgmorl_column_overstates_pgmorls_forward_objective_above_its_cap():
-    """Above 4 m/s PGMORL caps the forward reward; the column, made from v5's returns, does
-    not (its mapping note says so): at 6 m/s for 500 steps with |a|^2 = 1 the column's
-    point is (6 + 1, -1 + 5) x 500 where PGMORL's is (4 + 1, 4 - 1 + 1) x 500, its
-    hypervolume 7/5 of PGMORL's."""
-    row = _one_point_row([6.0 * 500, -1.0 * 500], 500.0)
-    assert row["hv_pgmorl"] == pytest.approx((7 * 500) * (4 * 500))
-    assert row["hv_pgmorl"] / ((5 * 500) * (4 * 500)) == pytest.approx(7 / 5)
-    assert "capped at 4 m/s there, not here" in mo_mujoco.PGMORL_MAPPING["halfcheetah"][1]
-
-
 def test_table_files(results):
     mo_mujoco.main(["table", "--results", results])
     md = open(os.path.join(results, "table.md")).read()
-    assert "| halfcheetah | smooth_wc | 2 | 1,000 | 0.99 | 1.389e+04 | 1.493e+06 |" in md
-    assert "| HalfCheetah-2d | halfcheetah | M | HV | 1e+06 | a paper, Table 1 | v2 model |" in md
-    # a value not read in its source is flagged, a checked one is not
-    assert (
-        "| Hopper-3d | hopper | N | EU | 3210 (not read in the source) | another paper "
-        "| as cited elsewhere |" in md
-    )
-    assert md.count("(not read in the source)") == 1
+    assert "| halfcheetah | smooth_wc | 2 | 1,000 | 0.99 | 1.389e+04 | 12.5 |" in md
     saved = json.load(open(os.path.join(results, "table.json")))
-    assert len(saved["rows"]) == 2 and saved["published"][0]["method"] == "M"
-
-
-def test_a_task_without_a_mapping_keeps_v5_returns():
-    front = _front("linear", [[100, -50], [10, -5]], [[50, -20], [5, -2]], [2.0, 0.1])
-    returns = mo_mujoco.pgmorl_returns("hopper-2obj", front)
-    assert returns.tolist() == [[100, -50], [10, -5]]
+    assert len(saved["rows"]) == 2 and "published" not in saved
 
 
 def test_bad_commands_are_refused(capsys):
