@@ -1326,6 +1326,7 @@ def t_field(doc: Doc, short: bool = False) -> str:
                 "–" if pgmorl is None else sci(pgmorl["hv"]),
                 best_cell,
                 ratio,
+                _mo_gymnasium(r),
                 num(r["seeds"][0]["env_steps_trained"]),
                 num(r["seeds"][0]["eval_env_steps"]),
                 f"{num(min(walls))}–{num(max(walls))}" if len(walls) > 1 else num(walls[0]),
@@ -1338,9 +1339,20 @@ def t_field(doc: Doc, short: bool = False) -> str:
         rows = [[p, "; ".join(cells)] for p, cells in merged.items()]
         return md(["protocol", "task: our mean HV (best published: ratio; seeds)"], rows, "ll")
     head = ["protocol", "task", "published as", "seeds", "HV mean [95%]", "PGMORL"]
-    head += ["best published", "ratio [95%]", "env steps trained", "eval env steps"]
-    head += ["wall s per seed"]
-    return md(head, rows, "llllrrrrrrr")
+    head += ["best published", "ratio [95%]", "in MO-Gymnasium: HV, ratio"]
+    head += ["env steps trained", "eval env steps", "wall s per seed"]
+    return md(head, rows, "llllrrrrrrrr")
+
+
+def _mo_gymnasium(r: dict) -> str:
+    """The same policies evaluated in MO-Gymnasium: the HV's mean over the seeds and its
+    ratio to the best published (`–`: not evaluated there)."""
+    ref = r.get("hv_mo_gymnasium")
+    if ref is None:
+        return "–"
+    return sci(ref["mean"]) + (
+        f", {num(ref['ratio_to_best'], 2)}" if "ratio_to_best" in ref else ""
+    )
 
 
 def t_field_ablation(doc: Doc) -> str:

@@ -9,7 +9,12 @@ Two commands, writing under `--results` (default `experiments/results/field`):
   task: one preference-conditioned network trained on the protocol's budget, evaluated
   and scored as the protocol says). A non-empty seed directory is refused unless
   `--resume` (the sweep continues it; a finished one is left as it is) or `--overwrite`.
-  Seeds run one after another, each alone in its process.
+  Seeds run one after another, each alone in its process. On C-MORL's protocol (tasks
+  of MO-Gymnasium itself) each finished run is then evaluated again in MO-Gymnasium's own
+  environment (`python -m wcac_jax.evaluate RUN --in mo-gymnasium`, numpy inference, the
+  protocol's preferences, episodes and discount) into the run's
+  `evaluation_mo_gymnasium.json`, unless `--no-reference-eval`; mo-gymnasium is an
+  optional extra.
 - `ablation --protocol P --env T --variants V [V ...] --seeds S [S ...]`: the choices
   around the method measured, not argued: each variant (`VARIANTS`: the conditioned
   update's defaults with named fields changed) trained and scored as the protocol says
@@ -23,7 +28,9 @@ Two commands, writing under `--results` (default `experiments/results/field`):
   against what the run wrote), their mean with a 95% Student-t interval over the seeds,
   the env steps trained (whole iterations, at most the budget) and evaluated, the wall
   time per seed, and the published numbers of the same protocol, task definition and
-  budget beside them, with the ratio of our mean to the best. A published number whose
+  budget beside them, with the ratio of our mean to the best; where every seed of a task
+  was evaluated in MO-Gymnasium too, that evaluation's HV (mean and interval) beside the
+  project's, and its ratio to the best. A published number whose
   definition (the environment it was measured on) or budget differs from the protocol's
   task is refused, naming both; so is a run that deviates from its protocol.
 
@@ -94,12 +101,39 @@ def seed_dir(results: str, protocol: str, env: str, seed: int) -> str:
     return os.path.join(results, protocol, env, f"seed{seed}")
 
 
-def run(results: str, protocol: str, env: str, seeds, resume: bool, overwrite: bool) -> int:
-    """Trains and scores each seed in its own process (see the module docstring)."""
+REFERENCE_EVAL = "evaluation_mo_gymnasium.json"
+# the protocols whose tasks are MO-Gymnasium's own: their runs are evaluated there too
+REFERENCE_PROTOCOLS = ("cmorl",)
+
+
+def reference_eval(out: str) -> int:
+    """`python -m wcac_jax.evaluate out --in mo-gymnasium` unless done; its status."""
+    if os.path.isfile(os.path.join(out, REFERENCE_EVAL)):
+        return 0
+    cmd = [sys.executable, "-m", "wcac_jax.evaluate", out, "--in", "mo-gymnasium", "--quiet"]
+    print(" ".join(cmd[1:]), flush=True)
+    return subprocess.call(cmd, cwd=ROOT)
+
+
+def run(
+    results: str,
+    protocol: str,
+    env: str,
+    seeds,
+    resume: bool,
+    overwrite: bool,
+    reference: bool = True,
+) -> int:
+    """Trains and scores each seed in its own process, then (C-MORL's protocol, unless
+    `reference` is false) evaluates it in MO-Gymnasium (see the module docstring)."""
+    reference = reference and protocol in REFERENCE_PROTOCOLS
     for seed in seeds:
         out = seed_dir(results, protocol, env, seed)
         if os.path.isfile(os.path.join(out, "front.json")) and resume:
             print(f"{out} is finished", flush=True)
+            status = reference_eval(out) if reference else 0
+            if status:
+                return status
             continue
         cmd = [sys.executable, "-m", "wcac_jax.sweep", "--env", env, "--protocol", protocol]
         cmd += ["--seed", str(seed), "--out", out]
@@ -109,6 +143,8 @@ def run(results: str, protocol: str, env: str, seeds, resume: bool, overwrite: b
             cmd.append("--overwrite")
         print(" ".join(cmd[1:]), flush=True)
         status = subprocess.call(cmd, cwd=ROOT)
+        if not status and reference:
+            status = reference_eval(out)
         if status:
             return status
     return 0
@@ -288,9 +324,19 @@ def task_row(results: str, protocol: protocols.Protocol, task, entries) -> dict 
         for key in ("hv", "eu"):
             if not math.isclose(written[key], score[key], rel_tol=1e-9):
                 raise TableError(f"{path}: its written {key} {written[key]} is not {score[key]}")
+        ref_path = os.path.join(os.path.dirname(path), REFERENCE_EVAL)
+        reference = None
+        if os.path.isfile(ref_path):
+            with open(ref_path) as f:
+                evaluated = json.load(f)["protocol"]
+            if evaluated["deviations"]:
+                departs = "; ".join(evaluated["deviations"])
+                raise TableError(f"{ref_path} departs from the {protocol.name} protocol: {departs}")
+            reference = {k: evaluated["mo_gymnasium"][k] for k in ("hv", "eu", "nondominated")}
         seeds.append(
             {
                 "seed": int(front["config"]["seed"]),
+                "mo_gymnasium": reference,
                 "hv": score["hv"],
                 "eu": score["eu"],
                 "nondominated": score["nondominated"],
@@ -303,6 +349,13 @@ def task_row(results: str, protocol: protocols.Protocol, task, entries) -> dict 
     hv = mean_interval([s["hv"] for s in seeds])
     eu = mean_interval([s["eu"] for s in seeds])
     best = max(published, key=lambda e: e["hv"]) if published else None
+    hv_ref = None  # MO-Gymnasium's evaluation, where every seed has one
+    if all(s["mo_gymnasium"] is not None for s in seeds):
+        m = mean_interval([s["mo_gymnasium"]["hv"] for s in seeds])
+        hv_ref = {"mean": m[0], "ci95": [m[1], m[2]]}
+        if best is not None:
+            hv_ref["ratio_to_best"] = m[0] / best["hv"]
+            hv_ref["ratio_ci95"] = [m[1] / best["hv"], m[2] / best["hv"]]
     return {
         "protocol": protocol.name,
         "task": task.env,
@@ -316,6 +369,7 @@ def task_row(results: str, protocol: protocols.Protocol, task, entries) -> dict 
         "best_published": None if best is None else {"method": best["method"], "hv": best["hv"]},
         "ratio_to_best": None if best is None else hv[0] / best["hv"],
         "ratio_ci95": None if best is None else [hv[1] / best["hv"], hv[2] / best["hv"]],
+        "hv_mo_gymnasium": hv_ref,
     }
 
 
@@ -349,8 +403,9 @@ def _e(x: float) -> str:
 def write_table(summary: dict, results: str) -> None:
     lines = [
         "| protocol | task | seeds | HV mean [95%] | EU mean | best published (HV) | ratio "
-        "[95%] | env steps trained | eval env steps | wall s per seed |",
-        "|---|---|---|---|---|---|---|---|---|---|",
+        "[95%] | HV in MO-Gymnasium [95%] | env steps trained | eval env steps | wall s per "
+        "seed |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in summary["rows"]:
         best = r["best_published"]
@@ -363,6 +418,11 @@ def write_table(summary: dict, results: str) -> None:
                 f"[{r['ratio_ci95'][0]:.2f}, {r['ratio_ci95'][1]:.2f}] "
                 if best
                 else "| none published | — "
+            )
+            + (
+                f"| {_e(ref['mean'])} [{_e(ref['ci95'][0])}, {_e(ref['ci95'][1])}] "
+                if (ref := r["hv_mo_gymnasium"])
+                else "| — "
             )
             + f"| {r['seeds'][0]['env_steps_trained']:,} "
             + f"| {r['seeds'][0]['eval_env_steps']:,} "
@@ -385,6 +445,11 @@ def main(argv=None) -> int:
     g = p.add_mutually_exclusive_group()
     g.add_argument("--resume", action="store_true")
     g.add_argument("--overwrite", action="store_true")
+    p.add_argument(
+        "--no-reference-eval",
+        action="store_true",
+        help="C-MORL's protocol: do not evaluate the runs in MO-Gymnasium afterwards",
+    )
     p = sub.add_parser("ablation", help="train and score variants of the conditioned update")
     p.add_argument("--protocol", required=True, choices=tuple(protocols.PROTOCOLS))
     p.add_argument("--env", required=True)
@@ -407,7 +472,15 @@ def main(argv=None) -> int:
         except ValueError as err:
             print(f"error: {err}", file=sys.stderr)
             return 2
-        return run(args.results, args.protocol, args.env, args.seeds, args.resume, args.overwrite)
+        return run(
+            args.results,
+            args.protocol,
+            args.env,
+            args.seeds,
+            args.resume,
+            args.overwrite,
+            not args.no_reference_eval,
+        )
     target = os.path.join(args.results, "table.json")
     if os.path.exists(target) and not args.overwrite:
         print(f"error: {target} exists (--overwrite replaces it)", file=sys.stderr)

@@ -121,6 +121,32 @@ def test_table_refuses_a_run_off_its_protocol_or_a_stale_score(results):
         field.summarize(str(results))
 
 
+def _reference(results, seed: int, hv: float, deviations=()) -> None:
+    d = results / "cmorl" / "hopper-2obj" / f"seed{seed}"
+    score = {"hv": hv, "eu": 1.0, "nondominated": 2, "kept": 101}
+    evaluated = {"mo_gymnasium": score, "project": score, "deviations": list(deviations)}
+    (d / field.REFERENCE_EVAL).write_text(json.dumps({"protocol": evaluated}))
+
+
+def test_table_sets_the_mo_gymnasium_evaluation_beside(results):
+    """With every seed evaluated in MO-Gymnasium too: that HV's mean (3.5e4 and 4.5e4:
+    4e4) and its ratio to the best published (5e4: 0.8) beside the project's; with one
+    seed missing it, none; an evaluation off the protocol is refused."""
+    _reference(results, 0, 3.5e4)
+    (row,) = field.summarize(str(results))["rows"]
+    assert row["hv_mo_gymnasium"] is None and row["seeds"][0]["mo_gymnasium"]["hv"] == 3.5e4
+    _reference(results, 1, 4.5e4)
+    (row,) = field.summarize(str(results))["rows"]
+    assert row["hv_mo_gymnasium"]["mean"] == pytest.approx(4e4)
+    assert row["hv_mo_gymnasium"]["ratio_to_best"] == pytest.approx(0.8)
+    # Student-t, 1 degree of freedom: 12.706 * std (7,071) / sqrt(2) = 63,531
+    lo, hi = row["hv_mo_gymnasium"]["ci95"]
+    assert (lo, hi) == pytest.approx([4e4 - 63531, 4e4 + 63531], rel=1e-4)
+    _reference(results, 1, 4.5e4, ["8 evaluation episodes, not 5"])
+    with pytest.raises(field.TableError, match="evaluation_mo_gymnasium.json departs"):
+        field.summarize(str(results))
+
+
 def test_published_numbers_are_filed_on_their_definitions():
     """Every committed published number names a protocol's task, its definition and the
     protocol's budget: the committed table can set each beside ours."""
