@@ -24,8 +24,9 @@ pairs for the files its numbers feed; a check scores the fronts under a `Convent
            (("field/table.json", check_field_table), ...), own=check_protocol_front)
 
 where `own` is what each front states of itself (`check_front`, and here its protocol's
-scores too). A file of evaluated returns that is not a training's front belongs to a
-family with no reference (`hv_ref=None`) and a check of its own kind.
+scores too). A file of evaluated returns that is not a training's front (an evaluation
+of a run's policies elsewhere, `mo_gymnasium_eval/`) belongs to a family with no
+reference (`hv_ref=None`) and a check of its own kind.
 
 A front that no family claims, or a generated block of the documents that no entry of
 `DOC_TABLES` / `DOC_VALUES` names, is itself a finding. The suite table's "HV (PGMORL)"
@@ -965,6 +966,8 @@ FIELD_PROTOCOLS = {
         },
     ),
 }
+# MO-Gymnasium's id of each v5 task (C-MORL's protocol lists every one)
+MO_GYMNASIUM_IDS = {env: t.definition for env, t in FIELD_PROTOCOLS["cmorl"].tasks.items()}
 
 
 def t_interval(values) -> tuple[float, float, float]:
@@ -1458,6 +1461,145 @@ def check_field_published(repo: Repo, rel: str) -> Findings:
     return out
 
 
+# ---------------------------------------------------------------------- MO-Gymnasium
+
+
+def reevaluation_agreement(d: dict) -> dict:
+    """An MO-Gymnasium evaluation's agreement with the project's, per kind of return, from
+    its per-preference means and standard deviations: every difference `ours - project`
+    against `s * sqrt(1/K + 1/K')`; the largest `|d|` (the first of equal ones), the
+    largest `|z|`, how many pass 2 and 3 standard errors, how many have one, how many
+    did not vary."""
+    k, k2 = d["episodes"], d["project_episodes"]
+    factor, out = math.sqrt(1.0 / k + 1.0 / k2), {}
+    for kind in ("return", "discounted_return"):
+        diffs = []
+        for row in d["prefs"]:
+            for j, (ours, theirs) in enumerate(zip(row[kind], row["project"][kind], strict=True)):
+                s = row[f"{kind}_std"][j]
+                se = None if s is None else s * factor
+                diffs.append(
+                    {
+                        "pref": row["pref"],
+                        "objective": j,
+                        "difference": ours - theirs,
+                        "se": se,
+                        "z": (ours - theirs) / se if se else None,
+                        "se_of_mean": None if s is None else s / math.sqrt(k),
+                    }
+                )
+        zs = [abs(x["z"]) for x in diffs if x["z"] is not None]
+        out[kind] = {
+            "largest_difference": max(diffs, key=lambda x: abs(x["difference"])),
+            "max_abs_z": max(zs) if zs else None,
+            "beyond_2se": sum(z > 2 for z in zs),
+            "beyond_3se": sum(z > 3 for z in zs),
+            "n": len(zs),
+            "no_noise": sum(x["se"] == 0 for x in diffs),
+        }
+    return out
+
+
+def reevaluation_departures(d: dict) -> list[tuple[str, list]]:
+    p = FIELD_PROTOCOLS[d["run_config"]["protocol"]]
+    task, out = p.tasks[d["env"]], []
+    prefs = np.asarray([row["pref"] for row in d["prefs"]], np.float64)
+    grid = p.prefs(task.m)
+    if prefs.shape != grid.shape or not np.allclose(prefs, grid, atol=1e-6):
+        out.append(("preferences", [len(prefs), len(grid)]))
+    if d["episodes"] != task.episodes:
+        out.append(("episodes", [d["episodes"], task.episodes]))
+    if p.convention.discounted and d["gamma"] != p.convention.gamma:
+        out.append(("discounted", [d["gamma"], p.convention.gamma]))
+    return out
+
+
+def check_reevaluation(repo: Repo, rel: str, hv_ref=None) -> Findings:
+    """`python -m wcac_jax.evaluate RUN --in mo-gymnasium`'s record: a finished run's
+    policies re-run in MO-Gymnasium, beside the project's evaluation of them. Not a
+    front: it states no hypervolume of its own at a reference and trains nothing; it is
+    claimed here because its rows hold evaluated returns.
+
+    What its committed data give: the task's MO-Gymnasium id and time limit, which
+    policies, the discount, each preference's mean episode length and its standard
+    deviation from the episodes' lengths (each within the limit), the standard errors
+    `std / sqrt(K)`, the whole `agreement` (differences, their standard errors and `z`,
+    the largest, the counts past 2 and 3) from the means and standard deviations, and
+    for a protocol's run both evaluations' protocol scores and the departures. What they
+    do not: the MO-Gymnasium side's means and standard deviations of the returns (the
+    record keeps no per-episode returns) and the project's side (the runs, under `runs/`,
+    are not committed), so neither is recomputed here."""
+    d, out = repo.json(rel), Findings()
+    config, env, m = d["run_config"], d["env"], len(d["objective_names"])
+    k = d["episodes"]
+    out.equal(f"{rel} env", config["env"], env)
+    out.equal(f"{rel} mo_gymnasium_id", d["mo_gymnasium_id"], MO_GYMNASIUM_IDS.get(env))
+    limit = config.get("env_options", {}).get("episode_length", T)
+    out.equal(f"{rel} max_episode_steps", d["mo_gymnasium_kwargs"].get("max_episode_steps"), limit)
+    conditioned = config["train"].get("kind") == "conditioned"
+    policies = "conditioned" if conditioned else "chosen" if config["select_last"] > 1 else "final"
+    out.equal(f"{rel} policies", d["policies"], policies)
+    if d.get("project_source", "front.json") == "front.json":
+        out.equal(f"{rel} project_episodes", d["project_episodes"], config["eval_episodes"])
+    name = config.get("protocol")
+    if name is not None and FIELD_PROTOCOLS[name].convention.discounted:
+        out.close(f"{rel} gamma", d["gamma"], FIELD_PROTOCOLS[name].convention.gamma)
+    else:
+        out.close(f"{rel} gamma", d["gamma"], config["train"]["gamma"])
+    for i, row in enumerate(d["prefs"]):
+        w = f"{rel} pref {i}"
+        lengths = np.asarray(row["episode_lengths"], np.float64)
+        out.equal(f"{w} episodes", len(lengths), k)
+        out.close(f"{w} episode_length", row["episode_length"], float(lengths.mean()))
+        std = float(np.std(lengths, ddof=1)) if k > 1 else None
+        out.close(f"{w} episode_length_std", row["episode_length_std"], std)
+        if len(lengths) and not 1 <= lengths.min() <= lengths.max() <= limit:
+            out.append(f"{w} episode_lengths: outside 1 to {limit}")
+        for kind in ("return", "discounted_return"):
+            out.equal(f"{w} {kind} objectives", [len(row[kind]), len(row["project"][kind])], [m, m])
+            for j, (s, se) in enumerate(zip(row[f"{kind}_std"], row[f"{kind}_se"], strict=True)):
+                out.close(f"{w} {kind}_se [{j}]", se, None if s is None else s / math.sqrt(k))
+    want = reevaluation_agreement(d)
+    out.equal(f"{rel} agreement kinds", sorted(d["agreement"]), sorted(want))
+    for kind, b in want.items():
+        w, a = f"{rel} agreement {kind}", d["agreement"].get(kind)
+        if a is None:
+            continue
+        big, stated = b["largest_difference"], a["largest_difference"]
+        out.equal(
+            f"{w} largest_difference at",
+            [stated["pref"], stated["objective"]],
+            [big["pref"], big["objective"]],
+        )
+        for key in ("difference", "se", "z", "se_of_mean"):
+            out.close(f"{w} largest_difference {key}", stated[key], big[key])
+        out.close(f"{w} max_abs_z", a["max_abs_z"], b["max_abs_z"])
+        for key in ("beyond_2se", "beyond_3se", "n", "no_noise"):
+            out.equal(f"{w} {key}", a[key], b[key])
+    s = d.get("protocol")
+    if (s is None) != (name is None):
+        out.append(f"{rel} protocol: states {s!r} for a run of protocol {name!r}")
+    if s is None or name is None:
+        return out
+    conv = FIELD_PROTOCOLS[name].convention
+    out.equal(
+        f"{rel} protocol name and returns", [s["protocol"], s["returns"]], [name, conv.returns]
+    )
+    for side, pts in (
+        ("mo_gymnasium", [row[conv.returns] for row in d["prefs"]]),
+        ("project", [row["project"][conv.returns] for row in d["prefs"]]),
+    ):
+        score = conv.score(pts)
+        for key in ("hv", "eu"):
+            out.close(f"{rel} protocol {side} {key}", s[side][key], score[key])
+        for key in ("nondominated", "kept"):
+            out.equal(f"{rel} protocol {side} {key}", s[side][key], score[key])
+    out.extend(
+        check_departures(f"{rel} protocol deviations", s["deviations"], reevaluation_departures(d))
+    )
+    return out
+
+
 # ---------------------------------------------------------------------- families
 
 
@@ -1585,6 +1727,12 @@ FAMILIES = (
         ),
         own=check_protocol_front,
     ),
+    Family(
+        "wcac_jax.evaluate: finished runs' policies re-run in MO-Gymnasium (not fronts)",
+        ("mo_gymnasium_eval/*.json",),
+        None,
+        own=check_reevaluation,
+    ),
 )
 
 
@@ -1627,7 +1775,7 @@ def check_families(repo: Repo, families=FAMILIES) -> Findings:
 # ---------------------------------------------------------------------- the documents
 
 DOCS = ("README.md", "docs/algorithm.md", "docs/environments.md", "docs/performance.md")
-DOCS += ("docs/results.md", "docs/recsys.md", "docs/distributed.md")
+DOCS += ("docs/results.md", "docs/recsys.md", "docs/distributed.md", "docs/protocols.md")
 BLOCK = re.compile(r"<!-- table:([\w-]+) -->\n(.*?)<!-- /table -->", re.S)
 VALUE = re.compile(r"<!-- value:([\w-]+) -->(.*?)<!-- /value -->", re.S)
 LINK = re.compile(r"\[((?:[^\]\[]|\[[^\]]*\])*)\]\(([^)\s]+)\)")
@@ -2233,6 +2381,50 @@ def glance_wants(t: Table, repo: Repo) -> Iterator:
                 yield i, head, None
 
 
+def mo_gymnasium_eval_wants(t: Table, repo: Repo) -> Iterator:
+    """Per MO-Gymnasium evaluation, its agreement on the undiscounted returns as its
+    means and standard deviations give it (`reevaluation_agreement`), and the protocol's
+    HV of both sides at the protocol's preferences."""
+    for i, link in enumerate(t.links):
+        d = repo.json(link[0])
+        a = reevaluation_agreement(d)["return"]
+        big = a["largest_difference"]
+        yield i, "result", None
+        yield i, "task", [f"`{d['env']}`"]
+        yield i, "policies", [d["policies"]]
+        yield (
+            i,
+            "prefs x episodes (project's)",
+            [len(d["prefs"]), d["episodes"], d["project_episodes"]],
+        )
+        yield (
+            i,
+            "largest difference",
+            [big["difference"], d["objective_names"][big["objective"]], *big["pref"]],
+        )
+        for head, v in (
+            ("SE of mean", big["se_of_mean"]),
+            ("SE of difference", big["se"]),
+            ("its z", None if big["z"] is None else abs(big["z"])),
+            ("largest z", a["max_abs_z"]),
+        ):
+            yield i, head, ["–"] if v is None else [v]
+        yield i, "beyond 2 / 3 SE", [a["beyond_2se"], a["beyond_3se"], a["n"]]
+        name = d["run_config"].get("protocol")
+        if name is None or any(w == "preferences" for w, _ in reevaluation_departures(d)):
+            yield i, "protocol HV: MO-Gymnasium / project", ["–"]
+        else:
+            conv, key = FIELD_PROTOCOLS[name].convention, FIELD_PROTOCOLS[name].convention.returns
+            yield (
+                i,
+                "protocol HV: MO-Gymnasium / project",
+                [
+                    conv.score([r[key] for r in d["prefs"]])["hv"],
+                    conv.score([r["project"][key] for r in d["prefs"]])["hv"],
+                ],
+            )
+
+
 def row_links(t: Table, i: int) -> list[str]:
     """Every front row `i` of `t` links to, in order (a cell may hold several links)."""
     targets = [m.group(2) for m in LINK.finditer(t.raw_rows[i])]
@@ -2282,6 +2474,7 @@ DOC_TABLES: dict[str, Callable[[Table, Repo], Iterator] | str] = {
     "mo_mujoco_published": mo_mujoco_published_wants,
     "fronts_wall": fronts_wall_wants,
     "bench_cli": bench_cli_wants,
+    "mo_gymnasium_eval": mo_gymnasium_eval_wants,
     "exploration_bandit": "exploration.json: scores of a problem with a known answer",
     "exploration_dst": "exploration.json: scores of a problem with a known answer",
     "convergence": "convergence.json: gaps to an exactly solved optimum",

@@ -39,6 +39,12 @@ def test_the_audit_walks_every_front_and_reads_every_generated_block():
     # the headline blocks are recomputed, not waved through
     for name in ("glance", "conditioned", "mo_mujoco", "mo_mujoco_seeds", "cli_default"):
         assert callable(audit.DOC_TABLES[name]), name
+    # MO-Gymnasium's evaluations hold evaluated returns: walked, and claimed by a family
+    # that checks them as evaluations (no reference of their own), their table recomputed
+    assert f"{audit.RESULTS}/mo_gymnasium_eval/hopper.json" in fronts
+    (evaluations,) = [f for f in audit.FAMILIES if "mo_gymnasium_eval/*.json" in f.fronts]
+    assert evaluations.hv_ref is None and evaluations.own is audit.check_reevaluation
+    assert callable(audit.DOC_TABLES["mo_gymnasium_eval"])
 
 
 # ---------------------------------------------------------------------- by hand
@@ -422,4 +428,33 @@ def test_plant_a_field_departure_and_a_published_budget(tmp_path):
         rf"{FIELD_FRONT} protocol deviations: states \[\], its data give \[\('evaluation episodes'",
         r"field/table.json cmorl hopper-2obj seed 0: departs from the protocol",
         r"field/published.json entry 0 \('cmorl', 'hopper-2obj', 'PGMORL'\) budget",
+    )
+
+
+def test_plant_an_mo_gymnasium_agreement_changed(tmp_path):
+    """The MO-Gymnasium evaluations' agreement: hopper's largest difference stated at 2.1
+    standard errors (its means and standard deviations give 2.0); one standard deviation
+    of the humanoid's returns 10% higher (its standard error and the agreement at that
+    preference no longer follow); and docs/protocols.md printing ant's largest z 17.0 for
+    17.6."""
+    root = _copy(tmp_path)
+    hopper, humanoid = f"{R}/mo_gymnasium_eval/hopper.json", f"{R}/mo_gymnasium_eval/humanoid.json"
+    _edit_json(
+        root, hopper, lambda d: d["agreement"]["return"]["largest_difference"].update(z=-2.1)
+    )
+
+    def change(d):
+        big = d["agreement"]["return"]["largest_difference"]
+        row = next(r for r in d["prefs"] if r["pref"] == big["pref"])
+        row["return_std"][big["objective"]] *= 1.1
+
+    _edit_json(root, humanoid, change)
+    _edit_text(root, "docs/protocols.md", "| 7.2 | 17.6 |", "| 7.2 | 17.0 |")
+    _fails(
+        root,
+        rf"{hopper} agreement return largest_difference z: states -2.1,",
+        rf"{humanoid} pref \d+ return_se \[1\]",
+        rf"{humanoid} agreement return largest_difference se:",
+        r"docs/protocols.md table mo_gymnasium_eval row 5 'SE of difference'",
+        r"docs/protocols.md table mo_gymnasium_eval row 0 'largest z': prints '17.0'",
     )
