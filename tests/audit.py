@@ -6,10 +6,12 @@ beside them, and the numbers that README.md and docs/*.md print, and checks each
 number against its own recomputation from the raw data: the evaluated returns
 (undiscounted and discounted), the mean episode lengths, the preferences and the
 recorded measurements (mean x velocity, wall seconds, env steps). It computes with numpy,
-scipy's Spearman correlation, pymoo's hypervolume and the definitions written here; it
-imports nothing of `wcac_jax`, `experiments/` or `docs/tables.py`, so a wrong number in
-a summary, or a summariser that drifts from the definitions, cannot pass by agreeing
-with itself.
+scipy's Spearman correlation and Student-t quantile, pymoo's hypervolume and the
+definitions written here (the field's protocols, `FIELD_PROTOCOLS`, as docs/protocols.md
+states them, their weight grids built as the published code builds them,
+`published_grid`); it imports nothing of `wcac_jax`, `experiments/` or `docs/tables.py`,
+so a wrong number in a summary, or a summariser that drifts from the definitions, cannot
+pass by agreeing with itself.
 
 `audit(root)` returns one line per stated number its data does not give (empty when
 all agree); `tests/test_audit.py` runs it on the repository and on copies with planted
@@ -18,11 +20,19 @@ reference point each `front.json` states its own hypervolume at, and `(glob, che
 pairs for the files its numbers feed; a check scores the fronts under a `Convention`
 (`C_MORL`, `PGMORL`, or a new one) and compares what the file states, e.g.
 
-    Family("the field's benchmark, C-MORL's protocol", ("field/cmorl/*/seed*/front.json",),
-           V5_TASKS, (("field/cmorl/table.json", check_field_table),))
+    Family("field.py: ...", ("field/*/*/seed*/front.json", ...), V5_TASKS | PGMORL_TASKS,
+           (("field/table.json", check_field_table), ...), own=check_protocol_front)
+
+where `own` is what each front states of itself (`check_front`, and here its protocol's
+scores too). A file of evaluated returns that is not a training's front (an evaluation
+of a run's policies elsewhere, `mo_gymnasium_eval/`) belongs to a family with no
+reference (`hv_ref=None`) and a check of its own kind.
 
 A front that no family claims, or a generated block of the documents that no entry of
-`DOC_TABLES` / `DOC_VALUES` names, is itself a finding.
+`DOC_TABLES` / `DOC_VALUES` names, is itself a finding. One count is accepted in two
+forms: a conditioned network's evaluation env steps as counted, or as the earlier code
+counted them, truncated by up to one step per episode (`eval_steps`), which the field's
+first fronts state.
 """
 
 from __future__ import annotations
@@ -35,11 +45,12 @@ import os
 import re
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
-from functools import cached_property
+from functools import cache, cached_property
 
 import numpy as np
 from pymoo.indicators.hv import HV
 from scipy.stats import spearmanr
+from scipy.stats import t as student_t
 
 RESULTS = "experiments/results"
 # float64 sums of the same JSON values in another order
@@ -89,6 +100,19 @@ def weight_grid(m: int, step: float) -> np.ndarray:
     return np.array(rows, np.float64) / h
 
 
+@cache
+def published_grid(m: int, step: float) -> np.ndarray:
+    """The grid of weights (or preferences) as the field's published code builds it: every
+    combination of `np.arange(0, 1 + step, step)` over the `m` objectives whose float
+    sum, left to right, is exactly 1 (the lattice points whose rounded coordinates do not
+    add up to 1 exactly are dropped: 62 of 66 for three objectives at step 0.1), in
+    lexicographic order."""
+    axis = np.arange(0.0, 1.0 + step, step).tolist()
+    grid = np.array([c for c in itertools.product(axis, repeat=m) if sum(c) == 1.0], np.float64)
+    grid.flags.writeable = False  # one array for every caller
+    return grid
+
+
 def front_json_weights(m: int, n: int = 101) -> np.ndarray:
     """The weights of `front.json`'s `expected_utility`, as docs/outputs.md defines them:
     `n` evenly spaced vectors for two objectives; for more, the smallest simplex lattice
@@ -119,7 +143,8 @@ def sparsity(points) -> float:
 
 # ---------------------------------------------------------------------- fronts
 
-# Every evaluation of the committed fronts: 8 episodes, each cut at 500 steps.
+# Every evaluation of the committed fronts cuts its episodes at 500 steps; 8 episodes per
+# preference where a front records no other (`config.eval_episodes`).
 EPISODES, T = 8, 500
 
 
@@ -150,6 +175,11 @@ class Front:
     def env(self) -> str:
         return self.data["env"]
 
+    @property
+    def episodes(self) -> int:
+        """The evaluation's episodes per preference (`EPISODES` where none is recorded)."""
+        return int(self.data.get("config", {}).get("eval_episodes", EPISODES))
+
     @cached_property
     def nd(self) -> np.ndarray:
         return nondominated(self.returns)
@@ -175,10 +205,10 @@ class Front:
         return self.row([0.0, 1.0])
 
     def speed(self, i: int) -> tuple[float, float]:
-        return walker_speed(self.returns[i, 0], self.lengths[i])
+        return walker_speed(self.returns[i, 0], self.lengths[i], self.episodes)
 
     def control_per_step(self, i: int) -> tuple[float, float]:
-        return walker_control(self.returns[i, 1], self.lengths[i])
+        return walker_control(self.returns[i, 1], self.lengths[i], self.episodes)
 
     def mean_x_velocity(self, i: int) -> float:
         return float(self.data["prefs"][i]["mean_x_velocity"])
@@ -195,26 +225,26 @@ class Front:
         return Front(self.path + " (final)", {**self.data, "prefs": rows})
 
 
-def falls(length: float) -> tuple[float, float]:
-    """The range of falls per episode that a mean length over `EPISODES` episodes allows:
+def falls(length: float, episodes: int = EPISODES) -> tuple[float, float]:
+    """The range of falls per episode that a mean length over `episodes` episodes allows:
     at least the episodes that cannot have lasted `T`, at most one each (an episode may
     fall on its last step and still last `T`)."""
-    full = min(EPISODES, math.floor((EPISODES * length - EPISODES) / (T - 1)))
-    return (EPISODES - max(full, 0)) / EPISODES, 1.0
+    full = min(episodes, math.floor((episodes * length - episodes) / (T - 1)))
+    return (episodes - max(full, 0)) / episodes, 1.0
 
 
-def walker_speed(forward: float, length: float) -> tuple[float, float]:
+def walker_speed(forward: float, length: float, episodes: int = EPISODES) -> tuple[float, float]:
     """Mean x velocity from a forward return of MO-Gymnasium's Walker2d (and Hopper):
     each step pays `x_velocity + healthy`, healthy 1 on every step but a falling one, so
     `R0 = L v + L - f` with `f` falls per episode; the range over the allowed `f`."""
-    lo, hi = falls(length)
+    lo, hi = falls(length, episodes)
     return (forward - length + lo) / length, (forward - length + hi) / length
 
 
-def walker_control(control: float, length: float) -> tuple[float, float]:
+def walker_control(control: float, length: float, episodes: int = EPISODES) -> tuple[float, float]:
     """Control energy per step `sum a^2` from Walker2d's control return
     `R1 = -L c + L - f`: `c = (L - f - R1) / L`, over the allowed `f`."""
-    lo, hi = falls(length)
+    lo, hi = falls(length, episodes)
     return (length - hi - control) / length, (length - lo - control) / length
 
 
@@ -228,8 +258,11 @@ class Convention:
     `discounted`: the discounted returns, else the undiscounted ones; `ref`: the
     reference point's value on every objective; `offsets`: per task, a constant per step
     added to each objective (`None`: that objective as it is), times the mean length;
-    `eu_step`: the weight grid's step per number of objectives (none: no EU stated);
-    `gamma`: the discount the discounted returns must have been taken at."""
+    `eu_step`: the weight grid's step per number of objectives (none: no EU stated), the
+    grid the published code's (`published_grid`) with `float_sum_grid`, else the whole
+    lattice; `gamma`: the discount the discounted returns must have been taken at (a
+    front's `eval_gamma`, else its training's; 1 for undiscounted); `drop_negative`:
+    points with a negative objective are dropped before scoring."""
 
     name: str
     discounted: bool
@@ -237,10 +270,22 @@ class Convention:
     offsets: dict = field(default_factory=dict)
     eu_step: dict = field(default_factory=dict)
     gamma: float = 0.99
+    drop_negative: bool = False
+    float_sum_grid: bool = False
+
+    @property
+    def returns(self) -> str:
+        """The rows' field scored."""
+        return "discounted_return" if self.discounted else "return"
+
+    def weights(self, m: int) -> np.ndarray:
+        step = self.eu_step[m]
+        return published_grid(m, step) if self.float_sum_grid else weight_grid(m, step)
 
     def points(self, front: Front) -> np.ndarray:
         if self.discounted:
-            gamma = front.data.get("config", {}).get("train", {}).get("gamma", self.gamma)
+            train = front.data.get("config", {}).get("train", {})
+            gamma = front.data.get("eval_gamma", train.get("gamma", self.gamma))
             if gamma != self.gamma:
                 raise ValueError(
                     f"{front.path}: discounted at {gamma}, {self.name} at {self.gamma}"
@@ -251,22 +296,53 @@ class Convention:
                 pts[:, j] += c * front.lengths
         return pts
 
+    def kept(self, points) -> np.ndarray:
+        pts = np.asarray(points, np.float64)
+        return pts[np.all(pts >= 0.0, axis=1)] if self.drop_negative else pts
+
     def hv(self, front: Front) -> float:
-        pts = self.points(front)
-        return hypervolume(pts, [self.ref] * pts.shape[1])
+        pts = self.kept(self.points(front))
+        return hypervolume(pts, [self.ref] * front.returns.shape[1]) if len(pts) else 0.0
 
     def eu(self, front: Front) -> float:
-        pts = self.points(front)
-        return expected_utility(pts, weight_grid(pts.shape[1], self.eu_step[pts.shape[1]]))
+        return self.score(self.points(front))["eu"]
+
+    def score(self, points) -> dict:
+        """`{"hv", "eu", "nondominated", "kept"}` of the objective vectors `points` (no
+        offsets): the hypervolume and expected utility of the points kept (none kept: 0
+        and 0), the distinct non-dominated ones among those that strictly dominate the
+        reference, and how many were kept."""
+        pts = self.kept(points)
+        if len(pts) == 0:
+            return {"hv": 0.0, "eu": 0.0, "nondominated": 0, "kept": 0}
+        ref = [self.ref] * pts.shape[1]
+        inside = pts[np.all(pts > np.asarray(ref), axis=1)]
+        return {
+            "hv": hypervolume(pts, ref),
+            "eu": expected_utility(pts, self.weights(pts.shape[1])),
+            "nondominated": int(nondominated(inside).sum()) if len(inside) else 0,
+            "kept": len(pts),
+        }
 
 
-# morl-baselines' (and C-MORL's): discounted at 0.99, -100 per objective, EU over the
-# grid of step 0.01 (two objectives) or 0.1 (three).
+# morl-baselines': discounted at 0.99, -100 per objective, EU over the lattice of step
+# 0.01 (two objectives) or 0.1 (three).
 MORL_BASELINES = Convention("morl-baselines", True, -100.0, eu_step={2: 0.01, 3: 0.1})
-C_MORL = MORL_BASELINES
-# PGMORL's and COLA's: undiscounted, reference at the origin, so a point with a negative
-# objective adds nothing.
-PGMORL = Convention("PGMORL", False, 0.0)
+# C-MORL's: morl-baselines' points and reference, its EU over its code's grid of those
+# steps (62 weights of the lattice's 66 for three objectives).
+C_MORL = Convention("C-MORL", True, -100.0, eu_step={2: 0.01, 3: 0.1}, float_sum_grid=True)
+# PGMORL's and COLA's: undiscounted, points with a negative objective dropped, reference at
+# the origin; EU over COLA's evaluation grid (step 0.005 for two objectives, 0.05 for
+# three).
+PGMORL = Convention(
+    "PGMORL",
+    False,
+    0.0,
+    eu_step={2: 0.005, 3: 0.05},
+    gamma=1.0,
+    drop_negative=True,
+    float_sum_grid=True,
+)
 
 # ---------------------------------------------------------------------- findings
 
@@ -403,7 +479,7 @@ def check_velocity(f: Front, i: int) -> Findings:
     v, (n, r0) = f.mean_x_velocity(i), (f.lengths[i], f.returns[i, 0])
     where = f"{f.path} row {i} mean_x_velocity"
     if healthy:
-        lo, hi = walker_speed(r0, n)
+        lo, hi = walker_speed(r0, n, f.episodes)
     else:
         lo = hi = r0 / n
     # float32 sums over the episodes' steps
@@ -657,10 +733,24 @@ def check_conditioned(repo: Repo, rel: str) -> Findings:
     return out
 
 
-def check_env_steps(f: Front, where: str, total, eval_steps) -> Findings:
+def eval_steps(f: Front) -> tuple[int, set[int]]:
+    """One network's evaluation env steps: the episodes times the summed mean lengths, and
+    where it chose each preference's policy among its last ones, the episodes times every
+    candidate's mean lengths too. `(count, as the earlier code counted it)`: that code
+    truncated the summed mean lengths (float32) before multiplying by the episodes, up
+    to `episodes - 1` steps short (the field's first fronts, written by it, state that
+    count; see `check_env_steps`)."""
+    e, total = f.episodes, float(f.lengths.sum())
+    chosen = f.data.get("selection", {}).get("candidate_length")
+    extra = int(round(e * float(np.sum(chosen)))) if chosen is not None else 0
+    earlier = {e * math.floor(total + d) + extra for d in (-1e-3, 1e-3)}
+    return int(round(e * total)) + extra, earlier
+
+
+def check_env_steps(f: Front, where: str, total, eval_env_steps) -> Findings:
     """A front's training env steps (iterations x envs x rollout steps, per preference or
-    for the one network) and, for one network, its evaluation's (episodes x mean
-    lengths, summed)."""
+    for the one network) and, for one network, its evaluation's (`eval_steps`: the
+    count, or the earlier code's count short by less than one step per episode)."""
     out, train = Findings(), f.data["config"]["train"]
     # per iteration: the rollout's steps, and for the paper's update (Algorithm 2) also
     # the critics' K TD steps on every environment
@@ -670,11 +760,12 @@ def check_env_steps(f: Front, where: str, total, eval_steps) -> Findings:
     per_program = train["num_iterations"] * train["num_envs"] * per_iteration
     if "conditioned" in f.data:
         out.equal(f"{where} env_steps_total", total, per_program)
-        want = EPISODES * f.lengths.sum()
-        out.equal(f"{where} eval_env_steps", eval_steps, int(round(want)))
+        count, earlier = eval_steps(f)
+        if eval_env_steps not in earlier:
+            out.equal(f"{where} eval_env_steps", eval_env_steps, count)
     else:
         out.equal(f"{where} env_steps_total", total, per_program * len(f.prefs))
-        out.equal(f"{where} eval_env_steps", eval_steps, None)
+        out.equal(f"{where} eval_env_steps", eval_env_steps, None)
     return out
 
 
@@ -779,6 +870,712 @@ def check_mo_mujoco_seeds(repo: Repo, where: str, task: str, c: dict) -> Finding
     return out
 
 
+# ---------------------------------------------------------------------- the field's protocols
+
+FIELD = f"{RESULTS}/field"
+
+
+@dataclass(frozen=True)
+class ProtocolTask:
+    """A task of one of the field's protocols: its name in the protocol's papers, the
+    environment it was measured on there, its objectives, evaluation episodes per
+    preference and episode length."""
+
+    published: str
+    definition: str
+    m: int
+    episodes: int
+    length: int = T
+
+
+@dataclass(frozen=True)
+class FieldProtocol:
+    """One of the field's benchmark protocols as docs/protocols.md states it: how a front
+    is scored (`convention`), the env steps of training in all per number of objectives,
+    the step of the preference grid a conditioned network is evaluated at (the published
+    code's, `published_grid`) and the tasks."""
+
+    name: str
+    convention: Convention
+    budget: dict
+    pref_step: dict
+    tasks: dict
+
+    def prefs(self, m: int) -> np.ndarray:
+        return published_grid(m, self.pref_step[m])
+
+
+FIELD_PROTOCOLS = {
+    "cmorl": FieldProtocol(
+        "cmorl",
+        C_MORL,
+        {2: 1_500_000, 3: 2_000_000},
+        {2: 0.01, 3: 0.1},
+        {
+            "hopper-2obj": ProtocolTask("Hopper-2d", "mo-hopper-2obj-v5", 2, 5),
+            "hopper": ProtocolTask("Hopper-3d", "mo-hopper-v5", 3, 10),
+            "ant-2obj": ProtocolTask("Ant-2d", "mo-ant-2obj-v5", 2, 10),
+            "ant": ProtocolTask("Ant-3d", "mo-ant-v5", 3, 10),
+            "humanoid": ProtocolTask("Humanoid-2d", "mo-humanoid-v5", 2, 10),
+            "walker2d": ProtocolTask("Walker-2d", "mo-walker2d-v5", 2, 10),
+            "halfcheetah": ProtocolTask("HalfCheetah-2d", "mo-halfcheetah-v5", 2, 10),
+            "swimmer": ProtocolTask("Swimmer-2d", "mo-swimmer-v5", 2, 10),
+        },
+    ),
+    "pgmorl": FieldProtocol(
+        "pgmorl",
+        PGMORL,
+        {2: 3_000_000, 3: 3_000_000},
+        {2: 0.005, 3: 0.05},
+        {
+            "walker2d-pgmorl": ProtocolTask("Walker-2d", "MO-Walker2d-v2", 2, 3),
+            "halfcheetah-pgmorl": ProtocolTask(
+                "HalfCheetah-2d (PGMORL)", "MO-HalfCheetah-v2", 2, 3
+            ),
+            "hopper-pgmorl": ProtocolTask("Hopper-2d", "MO-Hopper-v2", 2, 3),
+            "hopper3-pgmorl": ProtocolTask("Hopper-3d", "MO-Hopper-v3", 3, 3),
+            "ant-pgmorl": ProtocolTask("Ant-2d", "MO-Ant-v2", 2, 3),
+            "swimmer-pgmorl": ProtocolTask("Swimmer-2d", "MO-Swimmer-v2", 2, 3),
+            "humanoid-pgmorl": ProtocolTask("Humanoid-2d", "MO-Humanoid-v2", 2, 3, 1000),
+            "halfcheetah-cola": ProtocolTask("HalfCheetah-2d", "MO-New-HalfCheetah-v2", 2, 3),
+            "ant3-cola": ProtocolTask("Ant-3d", "MO-Ant-v3", 3, 3),
+        },
+    ),
+}
+# MO-Gymnasium's id of each v5 task (C-MORL's protocol lists every one)
+MO_GYMNASIUM_IDS = {env: t.definition for env, t in FIELD_PROTOCOLS["cmorl"].tasks.items()}
+
+
+def t_interval(values) -> tuple[float, float, float]:
+    """`(mean, lo, hi)`: the mean and its 95% Student-t interval (one value: itself)."""
+    x = np.asarray(values, np.float64)
+    mean = float(np.mean(x))
+    if len(x) < 2:
+        return mean, mean, mean
+    half = float(student_t.ppf(0.975, len(x) - 1) * np.std(x, ddof=1) / math.sqrt(len(x)))
+    return mean, mean - half, mean + half
+
+
+def field_run(rel: str) -> tuple[str, str, str | None, int]:
+    """`(protocol, task, variant or None, seed)` of a front's path under `FIELD`."""
+    parts = rel[len(FIELD) + 1 :].split("/")
+    if parts[0] == "ablation":
+        return parts[1], parts[2], parts[3], int(parts[4][4:])
+    return parts[0], parts[1], None, int(parts[2][4:])
+
+
+def field_fronts(repo: Repo, protocol: str, task: str, variant: str | None = None) -> dict:
+    """`{seed: path}` of one protocol task's fronts (of one variant of the ablation)."""
+    base = f"{FIELD}/{protocol}/{task}"
+    if variant is not None:
+        base = f"{FIELD}/ablation/{protocol}/{task}/{variant}"
+    return {int(p.split("/")[-2][4:]): p for p in repo.glob(f"{base}/seed*/front.json")}
+
+
+def protocol_task(protocol: str, env: str) -> ProtocolTask | None:
+    """The task `env` of the field's protocol `protocol`, or `None`."""
+    p = FIELD_PROTOCOLS.get(protocol)
+    return None if p is None else p.tasks.get(env)
+
+
+def protocol_of(f: Front) -> FieldProtocol:
+    return FIELD_PROTOCOLS[f.data["config"]["protocol"]]
+
+
+def protocol_score(f: Front) -> dict:
+    """The front's scores under its protocol, from its evaluated returns."""
+    conv = protocol_of(f).convention
+    return conv.score(f.discounted if conv.discounted else f.returns)
+
+
+def protocol_departures(f: Front) -> list[tuple[str, list]]:
+    """How a front departs from its protocol, in the order its `deviations` name them:
+    `(a word its line holds, the numbers its line prints)` each."""
+    p, config = protocol_of(f), f.data["config"]
+    task, m = p.tasks[config["env"]], f.returns.shape[1]
+    train, out = config["train"], []
+    trained, budget = f.data["env_steps_total"], p.budget[m]
+    per_iteration = train["num_envs"] * train["rollout_steps"]
+    if not budget - per_iteration < trained <= budget:
+        out.append(("env steps", [trained, budget, per_iteration]))
+    if f.episodes != task.episodes:
+        out.append(("evaluation episodes", [f.episodes, task.episodes]))
+    grid = p.prefs(m)
+    if f.prefs.shape != grid.shape or not np.allclose(f.prefs, grid, atol=1e-6):
+        out.append(("preferences", [len(f.prefs), len(grid)]))
+    length = config.get("env_options", {}).get("episode_length", task.length)
+    if length != task.length:
+        out.append(("episode length", [length, task.length]))
+    gamma = f.data.get("eval_gamma")
+    if p.convention.discounted and gamma != p.convention.gamma:
+        out.append(("discounted", [gamma, p.convention.gamma]))
+    return out
+
+
+def check_departures(where: str, stated: list, wanted: list[tuple[str, list]]) -> Findings:
+    """A `deviations` list: one line per departure its data give, each naming it (a word)
+    and printing its numbers."""
+    out = Findings()
+    if len(stated) != len(wanted):
+        out.append(f"{where}: states {stated!r}, its data give {wanted!r}")
+        return out
+    for line, (word, numbers_) in zip(stated, wanted, strict=True):
+        if word not in line:
+            out.append(f"{where}: states {line!r}, its data give a departure of {word!r}")
+        out.extend(compare(where, line, [v for v in numbers_ if v is not None]))
+    return out
+
+
+def check_choice(f: Front, where: str) -> Findings:
+    """A conditioned network's choice among its last policies (`selection`): the
+    candidates (the last `select_last` iterations, `select_every` env steps apart, the
+    final one last), each one's weighted-Chebyshev regret `max_i p_i (z_i - J_i)` at
+    every preference from its evaluated returns `J` and the stated utopia `z` (float32
+    sums: relative 1e-5), the choice of least regret, and its evaluation's env steps."""
+    out, sel, config = Findings(), f.data["selection"], f.data["config"]
+    train, conv = config["train"], protocol_of(f).convention
+    k, every = config["select_last"], config["select_every"]
+    per_iteration = train["num_envs"] * train["rollout_steps"]
+    last = train["num_iterations"]
+    want = [last - (k - 1 - i) * every // per_iteration for i in range(k)]
+    out.equal(f"{where} candidate_iterations", sel["candidate_iterations"], want)
+    out.equal(f"{where} selection returns", sel["returns"], conv.returns)
+    ret = np.asarray(sel["candidate_return"], np.float64)  # [K, P, m]
+    regret = np.max(f.prefs[None] * (np.asarray(sel["utopia"], np.float64) - ret), axis=2)
+    stated = np.asarray(sel["regret"], np.float64)
+    scale = 1e-5 * max(1.0, float(np.abs(regret).max()))
+    if stated.shape != regret.shape or not np.allclose(stated, regret, rtol=1e-5, atol=scale):
+        out.append(f"{where} regret: states other regrets than its returns and utopia give")
+    iterations = list(sel["candidate_iterations"])
+    for j, it in enumerate(sel["chosen_iteration"]):
+        if it not in iterations or regret[iterations.index(it), j] > regret[:, j].min() + scale:
+            out.append(
+                f"{where} chosen_iteration [{j}]: states {it}, its regrets give "
+                f"{iterations[int(np.argmin(regret[:, j]))]}"
+            )
+    steps = int(round(f.episodes * float(np.sum(sel["candidate_length"]))))
+    out.equal(f"{where} selection env_steps", sel["env_steps"], steps)
+    return out
+
+
+def check_protocol_front(repo: Repo, rel: str, hv_ref) -> Findings:
+    """A front trained under one of the field's protocols: what every front states
+    (`check_front`), that it is the run its path names, and its `protocol` block: the
+    protocol's HV, EU, non-dominated count and points kept from the returns the
+    protocol scores, the reference, budget, env steps trained (at most the budget) and
+    evaluated, the preferences, the departures from the protocol, and with a choice
+    among the network's last policies the choice and the final network's own scores."""
+    out, f = check_front(repo, rel, hv_ref), repo.front(rel)
+    d, config = f.data, f.data["config"]
+    name, env, _, seed = field_run(rel)
+    out.equal(
+        f"{rel} protocol, task and seed",
+        [config.get("protocol"), f.env, config["seed"]],
+        [name, env, seed],
+    )
+    s, task = d.get("protocol"), protocol_task(name, env)
+    if task is None or s is None or config.get("protocol") != name:
+        out.append(f"{rel}: no score of the {name} protocol's task {env!r}")
+        return out
+    p = FIELD_PROTOCOLS[name]
+    conv, m = p.convention, f.returns.shape[1]
+    w = f"{rel} protocol"
+    out.equal(
+        f"{w} name, task and returns",
+        [s["protocol"], s["task"], s["returns"]],
+        [name, task.published, conv.returns],
+    )
+    out.close(f"{w} gamma", s["gamma"], conv.gamma)
+    out.equal(f"{w} ref_point", [float(v) for v in s["ref_point"]], [conv.ref] * m)
+    score = protocol_score(f)
+    out.close(f"{w} hv", s["hv"], score["hv"])
+    out.close(f"{w} eu", s["eu"], score["eu"])
+    out.equal(f"{w} nondominated", s["nondominated"], score["nondominated"])
+    out.equal(f"{w} kept", s["kept"], score["kept"])
+    out.equal(f"{w} budget", s["budget"], p.budget[m])
+    out.equal(f"{w} env_steps_trained", s["env_steps_trained"], d["env_steps_total"])
+    if d["env_steps_total"] > p.budget[m]:
+        out.append(f"{w}: trained {d['env_steps_total']} env steps, past the budget")
+    out.equal(f"{w} eval_prefs", s["eval_prefs"], len(f.prefs))
+    count, earlier = eval_steps(f)
+    if s["eval_env_steps"] not in earlier:
+        out.equal(f"{w} eval_env_steps", s["eval_env_steps"], count)
+    out.extend(check_departures(f"{w} deviations", s["deviations"], protocol_departures(f)))
+    if "selection" not in d:  # fronts written before it was recorded lack it
+        out.equal(f"{w} final_network", s.get("final_network"), None)
+        return out
+    out.extend(check_choice(f, rel))
+    final = conv.score(d["selection"]["candidate_return"][-1])
+    stated = s.get("final_network") or {}
+    for key in ("hv", "eu"):
+        out.close(f"{w} final_network {key}", stated.get(key), final[key])
+    return out
+
+
+def field_row(repo: Repo, protocol: str, task: str, entries: list) -> dict:
+    """One protocol task's row of the field's table, from its fronts and the published
+    entries of the same protocol and task."""
+    paths = field_fronts(repo, protocol, task)
+    seeds = sorted(paths)
+    fronts = [repo.front(paths[s]) for s in seeds]
+    scores = [protocol_score(f) for f in fronts]
+    hv = t_interval([s["hv"] for s in scores])
+    published = [e for e in entries if (e["protocol"], e["task"]) == (protocol, task)]
+    best = max(published, key=lambda e: e["hv"]) if published else None
+    return {
+        "seeds": seeds,
+        "fronts": fronts,
+        "scores": scores,
+        "hv": hv,
+        "eu": t_interval([s["eu"] for s in scores]),
+        "published": published,
+        "best": best,
+        "ratio": None if best is None else [v / best["hv"] for v in hv],
+    }
+
+
+def field_entries(repo: Repo, base: str) -> list:
+    rel = f"{base}/published.json"
+    return repo.json(rel)["entries"] if repo.exists(rel) else []
+
+
+def field_tasks(repo: Repo, base: str) -> list[tuple[str, str]]:
+    """Every (protocol, task) with fronts under `base`, in the protocols' order."""
+    found = {tuple(p.split("/")[-4:-2]) for p in repo.glob(f"{base}/*/*/seed*/front.json")}
+    order = [(p, t) for p in FIELD_PROTOCOLS for t in FIELD_PROTOCOLS[p].tasks]
+    return sorted(found, key=lambda k: order.index(k) if k in order else len(order))
+
+
+def check_field_table(repo: Repo, rel: str) -> Findings:
+    """`field.py table`'s `table.json`: the protocols as stated, and per protocol task
+    each seed's protocol HV and EU, non-dominated count, env steps and seconds from its
+    front (none departing from the protocol), the mean and 95% Student-t interval over
+    the seeds, the published entries of the same protocol and task, the best of them
+    and the ratio of the mean (and its interval) to it."""
+    s, out, base = repo.json(rel), Findings(), os.path.dirname(rel)
+    for name, p in FIELD_PROTOCOLS.items():
+        got, conv = s["protocols"].get(name, {}), p.convention
+        out.equal(
+            f"{rel} protocol {name}",
+            [got.get("gamma"), got.get("ref_value"), got.get("drop_negative")],
+            [conv.gamma, conv.ref, conv.drop_negative],
+        )
+        out.equal(
+            f"{rel} protocol {name} budget_by_m",
+            got.get("budget_by_m"),
+            {str(k): v for k, v in p.budget.items()},
+        )
+    entries = field_entries(repo, base)
+    rows = {(r["protocol"], r["task"]): r for r in s["rows"]}
+    tasks = field_tasks(repo, base)
+    out.equal(f"{rel} rows", sorted(rows), sorted(tasks))
+    for (name, env), r in rows.items():
+        w, task = f"{rel} {name} {env}", protocol_task(name, env)
+        if (name, env) not in tasks or task is None:
+            continue
+        p = FIELD_PROTOCOLS[name]
+        row = field_row(repo, name, env, entries)
+        by_seed = dict(
+            zip(row["seeds"], zip(row["fronts"], row["scores"], strict=True), strict=True)
+        )
+        out.equal(
+            f"{w} task, definition and budget",
+            [r["published_task"], r["definition"], r["budget"]],
+            [task.published, task.definition, p.budget[task.m]],
+        )
+        out.equal(f"{w} seeds", [x["seed"] for x in r["seeds"]], row["seeds"])
+        for x in r["seeds"]:
+            if x["seed"] not in by_seed:
+                continue
+            (f, score), ws = by_seed[x["seed"]], f"{w} seed {x['seed']}"
+            out.equal(f"{ws} path", x["path"], f.path)
+            out.close(f"{ws} hv", x["hv"], score["hv"])
+            out.close(f"{ws} eu", x["eu"], score["eu"])
+            out.equal(f"{ws} nondominated", x["nondominated"], score["nondominated"])
+            out.equal(f"{ws} env_steps_trained", x["env_steps_trained"], f.data["env_steps_total"])
+            count, earlier = eval_steps(f)
+            if x["eval_env_steps"] not in earlier:
+                out.equal(f"{ws} eval_env_steps", x["eval_env_steps"], count)
+            out.close(f"{ws} wall_s", x["wall_s"], f.data["wall_s"])
+            if protocol_departures(f):
+                out.append(f"{ws}: departs from the protocol, yet stands in the table")
+        for key in ("hv", "eu"):
+            mean, lo, hi = row[key]
+            out.close(f"{w} {key} mean", r[key]["mean"], mean)
+            out.close(f"{w} {key} ci95 low", r[key]["ci95"][0], lo)
+            out.close(f"{w} {key} ci95 high", r[key]["ci95"][1], hi)
+        out.equal(f"{w} published", r["published"], row["published"])
+        best = row["best"]
+        out.equal(
+            f"{w} best_published",
+            r["best_published"],
+            None if best is None else {"method": best["method"], "hv": best["hv"]},
+        )
+        ratio = row["ratio"] or [None, None, None]
+        out.close(f"{w} ratio_to_best", r["ratio_to_best"], ratio[0])
+        stated = r["ratio_ci95"] or [None, None]
+        out.close(f"{w} ratio_ci95 low", stated[0], ratio[1])
+        out.close(f"{w} ratio_ci95 high", stated[1], ratio[2])
+    return out
+
+
+def md_table(repo: Repo, rel: str) -> tuple[list[str], list[list[str]]]:
+    """A Markdown file's one table: its header and its rows' cells."""
+    lines = [ln for ln in repo.text(rel).splitlines() if ln.startswith("|")]
+    return _cells(lines[0], rel)[0], [_cells(ln, rel)[0] for ln in lines[2:]]
+
+
+def check_md_rows(rel: str, header: list, rows: list, wants: dict, labels: int) -> Findings:
+    """Each row of a results file's Markdown table, keyed by its first `labels` cells,
+    prints what `wants[key]` (`{column header: what the cell must print}`) gives; every
+    other column is named there."""
+    out = Findings()
+    keys = [tuple(r[:labels]) for r in rows]
+    for head in header[labels:]:
+        if any(head not in w for w in wants.values()):
+            out.append(f"{rel} column {head!r}: not audited")
+    if sorted(keys) != sorted(wants):
+        out.append(f"{rel}: rows {sorted(keys)}, its data give {sorted(wants)}")
+    for key, row in zip(keys, rows, strict=True):
+        for head, want in wants.get(key, {}).items():
+            col = header.index(head) if head in header else None
+            if col is None:
+                out.append(f"{rel}: no column {head!r}")
+                continue
+            out.extend(compare(f"{rel} {' '.join(key)} '{head}'", row[col], want))
+    return out
+
+
+def check_field_table_md(repo: Repo, rel: str) -> Findings:
+    """`table.md`: each protocol task's row, from its fronts and the published entries
+    (the first seed's env steps; its evaluation's as counted, or as the earlier code
+    counted them, `eval_steps`)."""
+    base, wants = os.path.dirname(rel), {}
+    entries = field_entries(repo, base)
+    for name, env in field_tasks(repo, base):
+        if protocol_task(name, env) is None:
+            continue
+        row = field_row(repo, name, env, entries)
+        first = row["fronts"][0]
+        count, earlier = eval_steps(first)
+        best = row["best"]
+        wants[(name, env)] = {
+            "seeds": [len(row["seeds"])],
+            "HV mean [95%]": list(row["hv"]),
+            "EU mean": [row["eu"][0]],
+            "best published (HV)": ["none published"]
+            if best is None
+            else [best["method"], best["hv"]],
+            "ratio [95%]": ["—"] if best is None else list(row["ratio"]),
+            "env steps trained": [first.data["env_steps_total"]],
+            "eval env steps": [(min(earlier | {count}), count)],
+            "wall s per seed": [f.data["wall_s"] for f in row["fronts"]],
+        }
+    header, rows = md_table(repo, rel)
+    return check_md_rows(rel, header, rows, wants, 2)
+
+
+def ablation_rows(repo: Repo, base: str) -> dict:
+    """Per (protocol, task, variant) of the ablation: its seeds' fronts and scores, the
+    mean and interval of the HV, the mean EU, and against the `default` variant's runs
+    of the same task the seeds both ran and the ratio of the HV means on them."""
+    found = {
+        tuple(p.split("/")[-5:-2]) for p in repo.glob(f"{base}/ablation/*/*/*/seed*/front.json")
+    }
+    rows = {}
+    for key in sorted(found):
+        paths = field_fronts(repo, *key)
+        seeds = sorted(paths)
+        fronts = [repo.front(paths[s]) for s in seeds]
+        scores = [protocol_score(f) for f in fronts]
+        rows[key] = {
+            "seeds": seeds,
+            "fronts": fronts,
+            "hv_by_seed": dict(zip(seeds, (s["hv"] for s in scores), strict=True)),
+            "eu_by_seed": dict(zip(seeds, (s["eu"] for s in scores), strict=True)),
+            "hv": t_interval([s["hv"] for s in scores]),
+            "eu_mean": float(np.mean([s["eu"] for s in scores])),
+        }
+    for (protocol, task, _), r in rows.items():
+        ref = rows.get((protocol, task, "default"), {}).get("hv_by_seed", {})
+        paired = [s for s in r["seeds"] if s in ref]
+        r["paired"] = paired
+        r["ratio"] = (
+            float(np.mean([r["hv_by_seed"][s] for s in paired]) / np.mean([ref[s] for s in paired]))
+            if paired
+            else None
+        )
+    return rows
+
+
+def check_changes(where: str, changes, fronts: list, defaults: list) -> Findings:
+    """A variant's stated changes are what its runs trained: each named field of the
+    conditioned update as stated (`select`: `[select_last, select_every]`; without it,
+    the final network), and against the `default` variant's runs of the task, no other
+    field that both record changed."""
+    out = Findings()
+    if changes is None:
+        out.append(f"{where} changes: states none")
+        return out
+    named = sorted(k for k in changes if k != "select")
+    for f in fronts:
+        config, train = f.data["config"], f.data["config"]["train"]
+        w = f"{where} seed {config['seed']}"
+        out.equal(
+            f"{w} select",
+            [config["select_last"], config["select_every"]],
+            list(changes.get("select", [1, 0])),
+        )
+        out.equal(f"{w} changes", {k: train.get(k) for k in named}, {k: changes[k] for k in named})
+        for g in defaults:
+            base = g.data["config"]["train"]
+            # a field one of them predates (written before it existed) is not compared
+            differ = sorted(k for k in set(train) & set(base) if train[k] != base[k])
+            out.equal(f"{w} fields other than the defaults'", differ, named)
+    return out
+
+
+def check_field_ablation(repo: Repo, rel: str) -> Findings:
+    """`field.py ablation-table`'s `ablation.json`: per protocol, task and variant, its
+    changes against the runs' configurations, each seed's protocol HV and EU, seconds and
+    departures from its front, the HV's mean and interval, the mean EU, and the ratio to
+    the `default` variant's HV on the seeds both ran."""
+    s, out, base = repo.json(rel), Findings(), os.path.dirname(rel)
+    rows = ablation_rows(repo, base)
+    stated = {(r["protocol"], r["task"], r["variant"]): r for r in s["rows"]}
+    out.equal(f"{rel} rows", sorted(stated), sorted(rows))
+    for key, r in stated.items():
+        if key not in rows:
+            continue
+        want, w = rows[key], f"{rel} {' '.join(key)}"
+        defaults = rows.get((*key[:2], "default"), {}).get("fronts", [])
+        out.extend(check_changes(w, r["changes"], want["fronts"], defaults))
+        out.equal(f"{w} seeds", sorted(x["seed"] for x in r["seeds"]), want["seeds"])
+        by_seed = dict(zip(want["seeds"], want["fronts"], strict=True))
+        for x in r["seeds"]:
+            f = by_seed.get(x["seed"])
+            if f is None:
+                continue
+            ws = f"{w} seed {x['seed']}"
+            out.close(f"{ws} hv", x["hv"], want["hv_by_seed"][x["seed"]])
+            out.close(f"{ws} eu", x["eu"], want["eu_by_seed"][x["seed"]])
+            out.close(f"{ws} wall_s", x["wall_s"], f.data["wall_s"])
+            out.extend(
+                check_departures(f"{ws} deviations", x["deviations"], protocol_departures(f))
+            )
+        mean, lo, hi = want["hv"]
+        out.close(f"{w} hv mean", r["hv"]["mean"], mean)
+        out.close(f"{w} hv ci95 low", r["hv"]["ci95"][0], lo)
+        out.close(f"{w} hv ci95 high", r["hv"]["ci95"][1], hi)
+        out.close(f"{w} eu_mean", r["eu_mean"], want["eu_mean"])
+        out.equal(f"{w} paired_seeds", sorted(r["paired_seeds"]), want["paired"])
+        out.close(f"{w} ratio_to_default", r["ratio_to_default"], want["ratio"])
+    return out
+
+
+def check_field_ablation_md(repo: Repo, rel: str) -> Findings:
+    """`ablation.md`: each variant's row from its fronts (its changes as `ablation.json`
+    states them, checked there against the runs)."""
+    base = os.path.dirname(rel)
+    stated = {
+        (r["protocol"], r["task"], r["variant"]): r["changes"] or {}
+        for r in repo.json(f"{base}/ablation.json")["rows"]
+    }
+    wants = {}
+    for key, r in ablation_rows(repo, base).items():
+        changes = stated.get(key, {})
+        values = [
+            v
+            for c in changes.values()
+            for v in (c if isinstance(c, list) else [c])
+            if isinstance(v, int | float) and not isinstance(v, bool)
+        ]
+        wants[key] = {
+            "changes": [*values, *changes],
+            "seeds": r["seeds"],
+            "HV mean [95%]": list(r["hv"]),
+            "EU mean": [r["eu_mean"]],
+            "vs default (same seeds)": ["—"] if r["ratio"] is None else [r["ratio"], *r["paired"]],
+            "wall s per seed": [f.data["wall_s"] for f in r["fronts"]],
+        }
+    header, rows = md_table(repo, rel)
+    return check_md_rows(rel, header, rows, wants, 3)
+
+
+def check_field_published(repo: Repo, rel: str) -> Findings:
+    """`published.json`: each entry a task of its protocol, on the task's definition and
+    the protocol's budget, with a method, a positive hypervolume, its seeds and its
+    source, none twice; those from COLA's Table 1 as `COLA_TABLE_1` prints them (D3PO's
+    are checked for form only: the audit holds no copy of D3PO's table)."""
+    out, seen = Findings(), set()
+    for i, e in enumerate(repo.json(rel)["entries"]):
+        key = (e.get("protocol"), e.get("task"), e.get("method"))
+        w = f"{rel} entry {i} {key}"
+        task = protocol_task(key[0], key[1])
+        if task is None:
+            out.append(f"{w}: not a task of a protocol")
+            continue
+        out.equal(f"{w} definition", e.get("definition"), task.definition)
+        out.equal(f"{w} budget", e.get("budget"), FIELD_PROTOCOLS[key[0]].budget[task.m])
+        hv, seeds, source = e.get("hv"), e.get("seeds"), e.get("source")
+        if not (isinstance(hv, int | float) and math.isfinite(hv) and hv > 0):
+            out.append(f"{w} hv: states {hv!r}, not a positive number")
+        if not (isinstance(seeds, int) and seeds >= 1):
+            out.append(f"{w} seeds: states {seeds!r}, not a number of runs")
+        if not (isinstance(source, str) and source.strip() and isinstance(key[2], str)):
+            out.append(f"{w}: states no method or source")
+        if key in seen:
+            out.append(f"{w}: stated twice")
+        seen.add(key)
+        if isinstance(source, str) and source.startswith("COLA"):
+            method = str(key[2]).replace("Envelope-SAC", "Envelope SAC")
+            printed = COLA_TABLE_1.get(task.published, {}).get(method)
+            if printed is None:
+                out.append(f"{w}: not in COLA's Table 1")
+            else:
+                out.close(f"{w} hv", hv, printed[0][0])
+    return out
+
+
+# ---------------------------------------------------------------------- MO-Gymnasium
+
+
+def reevaluation_agreement(d: dict) -> dict:
+    """An MO-Gymnasium evaluation's agreement with the project's, per kind of return, from
+    its per-preference means and standard deviations: every difference `ours - project`
+    against `s * sqrt(1/K + 1/K')`; the largest `|d|` (the first of equal ones), the
+    largest `|z|`, how many pass 2 and 3 standard errors, how many have one, how many
+    did not vary."""
+    k, k2 = d["episodes"], d["project_episodes"]
+    factor, out = math.sqrt(1.0 / k + 1.0 / k2), {}
+    for kind in ("return", "discounted_return"):
+        diffs = []
+        for row in d["prefs"]:
+            for j, (ours, theirs) in enumerate(zip(row[kind], row["project"][kind], strict=True)):
+                s = row[f"{kind}_std"][j]
+                se = None if s is None else s * factor
+                diffs.append(
+                    {
+                        "pref": row["pref"],
+                        "objective": j,
+                        "difference": ours - theirs,
+                        "se": se,
+                        "z": (ours - theirs) / se if se else None,
+                        "se_of_mean": None if s is None else s / math.sqrt(k),
+                    }
+                )
+        zs = [abs(x["z"]) for x in diffs if x["z"] is not None]
+        out[kind] = {
+            "largest_difference": max(diffs, key=lambda x: abs(x["difference"])),
+            "max_abs_z": max(zs) if zs else None,
+            "beyond_2se": sum(z > 2 for z in zs),
+            "beyond_3se": sum(z > 3 for z in zs),
+            "n": len(zs),
+            "no_noise": sum(x["se"] == 0 for x in diffs),
+        }
+    return out
+
+
+def reevaluation_departures(d: dict) -> list[tuple[str, list]]:
+    p = FIELD_PROTOCOLS[d["run_config"]["protocol"]]
+    task, out = p.tasks[d["env"]], []
+    prefs = np.asarray([row["pref"] for row in d["prefs"]], np.float64)
+    grid = p.prefs(task.m)
+    if prefs.shape != grid.shape or not np.allclose(prefs, grid, atol=1e-6):
+        out.append(("preferences", [len(prefs), len(grid)]))
+    if d["episodes"] != task.episodes:
+        out.append(("episodes", [d["episodes"], task.episodes]))
+    if p.convention.discounted and d["gamma"] != p.convention.gamma:
+        out.append(("discounted", [d["gamma"], p.convention.gamma]))
+    return out
+
+
+def check_reevaluation(repo: Repo, rel: str, hv_ref=None) -> Findings:
+    """`python -m wcac_jax.evaluate RUN --in mo-gymnasium`'s record: a finished run's
+    policies re-run in MO-Gymnasium, beside the project's evaluation of them. Not a
+    front: it states no hypervolume of its own at a reference and trains nothing; it is
+    claimed here because its rows hold evaluated returns.
+
+    What its committed data give: the task's MO-Gymnasium id and time limit, which
+    policies, the discount, each preference's mean episode length and its standard
+    deviation from the episodes' lengths (each within the limit), the standard errors
+    `std / sqrt(K)`, the whole `agreement` (differences, their standard errors and `z`,
+    the largest, the counts past 2 and 3) from the means and standard deviations, and
+    for a protocol's run both evaluations' protocol scores and the departures. What they
+    do not: the MO-Gymnasium side's means and standard deviations of the returns (the
+    record keeps no per-episode returns) and the project's side (the runs, under `runs/`,
+    are not committed), so neither is recomputed here."""
+    d, out = repo.json(rel), Findings()
+    config, env, m = d["run_config"], d["env"], len(d["objective_names"])
+    k = d["episodes"]
+    out.equal(f"{rel} env", config["env"], env)
+    out.equal(f"{rel} mo_gymnasium_id", d["mo_gymnasium_id"], MO_GYMNASIUM_IDS.get(env))
+    limit = config.get("env_options", {}).get("episode_length", T)
+    out.equal(f"{rel} max_episode_steps", d["mo_gymnasium_kwargs"].get("max_episode_steps"), limit)
+    conditioned = config["train"].get("kind") == "conditioned"
+    policies = "conditioned" if conditioned else "chosen" if config["select_last"] > 1 else "final"
+    out.equal(f"{rel} policies", d["policies"], policies)
+    if d.get("project_source", "front.json") == "front.json":
+        out.equal(f"{rel} project_episodes", d["project_episodes"], config["eval_episodes"])
+    name = config.get("protocol")
+    if name is not None and FIELD_PROTOCOLS[name].convention.discounted:
+        out.close(f"{rel} gamma", d["gamma"], FIELD_PROTOCOLS[name].convention.gamma)
+    else:
+        out.close(f"{rel} gamma", d["gamma"], config["train"]["gamma"])
+    for i, row in enumerate(d["prefs"]):
+        w = f"{rel} pref {i}"
+        lengths = np.asarray(row["episode_lengths"], np.float64)
+        out.equal(f"{w} episodes", len(lengths), k)
+        out.close(f"{w} episode_length", row["episode_length"], float(lengths.mean()))
+        std = float(np.std(lengths, ddof=1)) if k > 1 else None
+        out.close(f"{w} episode_length_std", row["episode_length_std"], std)
+        if len(lengths) and not 1 <= lengths.min() <= lengths.max() <= limit:
+            out.append(f"{w} episode_lengths: outside 1 to {limit}")
+        for kind in ("return", "discounted_return"):
+            out.equal(f"{w} {kind} objectives", [len(row[kind]), len(row["project"][kind])], [m, m])
+            for j, (s, se) in enumerate(zip(row[f"{kind}_std"], row[f"{kind}_se"], strict=True)):
+                out.close(f"{w} {kind}_se [{j}]", se, None if s is None else s / math.sqrt(k))
+    want = reevaluation_agreement(d)
+    out.equal(f"{rel} agreement kinds", sorted(d["agreement"]), sorted(want))
+    for kind, b in want.items():
+        w, a = f"{rel} agreement {kind}", d["agreement"].get(kind)
+        if a is None:
+            continue
+        big, stated = b["largest_difference"], a["largest_difference"]
+        out.equal(
+            f"{w} largest_difference at",
+            [stated["pref"], stated["objective"]],
+            [big["pref"], big["objective"]],
+        )
+        for key in ("difference", "se", "z", "se_of_mean"):
+            out.close(f"{w} largest_difference {key}", stated[key], big[key])
+        out.close(f"{w} max_abs_z", a["max_abs_z"], b["max_abs_z"])
+        for key in ("beyond_2se", "beyond_3se", "n", "no_noise"):
+            out.equal(f"{w} {key}", a[key], b[key])
+    s = d.get("protocol")
+    if (s is None) != (name is None):
+        out.append(f"{rel} protocol: states {s!r} for a run of protocol {name!r}")
+    if s is None or name is None:
+        return out
+    conv = FIELD_PROTOCOLS[name].convention
+    out.equal(
+        f"{rel} protocol name and returns", [s["protocol"], s["returns"]], [name, conv.returns]
+    )
+    for side, pts in (
+        ("mo_gymnasium", [row[conv.returns] for row in d["prefs"]]),
+        ("project", [row["project"][conv.returns] for row in d["prefs"]]),
+    ):
+        score = conv.score(pts)
+        for key in ("hv", "eu"):
+            out.close(f"{rel} protocol {side} {key}", s[side][key], score[key])
+        for key in ("nondominated", "kept"):
+            out.equal(f"{rel} protocol {side} {key}", s[side][key], score[key])
+    out.extend(
+        check_departures(f"{rel} protocol deviations", s["deviations"], reevaluation_departures(d))
+    )
+    return out
+
+
 # ---------------------------------------------------------------------- families
 
 
@@ -791,8 +1588,11 @@ class Family:
 
     name: str
     fronts: tuple[str, ...]
-    hv_ref: dict
+    hv_ref: dict | None
     feeds: tuple[tuple[str, Callable[[Repo, str], Findings]], ...] = ()
+    # what each of its files states of itself: `check_front` at the family's reference
+    # (`own(repo, path, hv_ref[env])`), or with `hv_ref` None a check of its own kind
+    own: Callable[[Repo, str, tuple | None], Findings] = check_front
 
 
 WALKER2D = {"walker2d": (-500.0, -3000.0)}  # (-T, -6T): Walker2d's stated reference
@@ -807,6 +1607,27 @@ V5_TASKS = WALKER2D | {
     "ant": (-2500.0, -2500.0, -4500.0),
     "ant-2obj": (-4500.0, -4500.0),
     "humanoid": (-6500.0, -6500.0),
+}
+# PGMORL's and COLA's tasks (`*-pgmorl`, `*-cola`), each per objective a floor per step
+# times the episode's steps, as each environment states it
+_HOPPER_COST = 2e-4 * 24.0  # the largest control cost per step
+_HOPPER_ALIVE = 12.0 * (0.4 - 1.25) + 1.0 - _HOPPER_COST  # height term at z = 0.4
+_HOPPER_FALL = 12.0 * (0.0 - 1.25) + 1.0 - _HOPPER_COST  # and at z = 0, the falling step
+_HOPPER_2 = ((1.5 * -2.0 + 1.0 - _HOPPER_COST) * 500.0, _HOPPER_ALIVE * 499.0 + _HOPPER_FALL)
+PGMORL_TASKS = {
+    "walker2d-pgmorl": (-500.0, -500.0),
+    "halfcheetah-pgmorl": (-4500.0, -500.0),
+    "hopper-pgmorl": _HOPPER_2,
+    "hopper3-pgmorl": (
+        _HOPPER_2[0] + _HOPPER_COST * 500.0,
+        _HOPPER_2[1] + _HOPPER_COST * 500.0,
+        (4.0 - 24.0 + 1.0) * 500.0,
+    ),
+    "ant-pgmorl": (-3500.0, -3500.0),
+    "swimmer-pgmorl": (-500.0, 0.0),
+    "humanoid-pgmorl": ((1.25 * -3.0 + 3.0) * 1000.0, (3.0 + 3.0 - 4.0 * (17 * 0.4**2)) * 1000.0),
+    "halfcheetah-cola": (-2000.0, -500.0),
+    "ant3-cola": (-2000.0, -2000.0, 0.0),
 }
 
 
@@ -869,6 +1690,25 @@ FAMILIES = (
         ("bench_cli_*/front*.json",),
         BRAX_WALKER2D,
     ),
+    Family(
+        "field.py: the field's protocols, their table and the ablation",
+        ("field/*/*/seed*/front.json", "field/ablation/*/*/*/seed*/front.json"),
+        V5_TASKS | PGMORL_TASKS,
+        (
+            ("field/table.json", check_field_table),
+            ("field/table.md", check_field_table_md),
+            ("field/ablation.json", check_field_ablation),
+            ("field/ablation.md", check_field_ablation_md),
+            ("field/published.json", check_field_published),
+        ),
+        own=check_protocol_front,
+    ),
+    Family(
+        "wcac_jax.evaluate: finished runs' policies re-run in MO-Gymnasium (not fronts)",
+        ("mo_gymnasium_eval/*.json",),
+        None,
+        own=check_reevaluation,
+    ),
 )
 
 
@@ -891,10 +1731,13 @@ def check_families(repo: Repo, families=FAMILIES) -> Findings:
         if rel not in owner:
             continue
         fam, env = by_name[owner[rel]], repo.front(rel).env
+        if fam.hv_ref is None:
+            out.extend(fam.own(repo, rel, None))
+            continue
         if env not in fam.hv_ref:
             out.append(f"{rel}: {fam.name!r} states no reference for {env!r}")
             continue
-        out.extend(check_front(repo, rel, fam.hv_ref[env]))
+        out.extend(fam.own(repo, rel, fam.hv_ref[env]))
     for fam in families:
         for pattern, check in fam.feeds:
             paths = repo.glob(f"{RESULTS}/{pattern}")
@@ -908,7 +1751,7 @@ def check_families(repo: Repo, families=FAMILIES) -> Findings:
 # ---------------------------------------------------------------------- the documents
 
 DOCS = ("README.md", "docs/algorithm.md", "docs/environments.md", "docs/performance.md")
-DOCS += ("docs/results.md", "docs/recsys.md", "docs/distributed.md")
+DOCS += ("docs/results.md", "docs/recsys.md", "docs/distributed.md", "docs/protocols.md")
 BLOCK = re.compile(r"<!-- table:([\w-]+) -->\n(.*?)<!-- /table -->", re.S)
 VALUE = re.compile(r"<!-- value:([\w-]+) -->(.*?)<!-- /value -->", re.S)
 LINK = re.compile(r"\[((?:[^\]\[]|\[[^\]]*\])*)\]\(([^)\s]+)\)")
@@ -1494,6 +2337,50 @@ def glance_wants(t: Table, repo: Repo) -> Iterator:
                 yield i, head, None
 
 
+def mo_gymnasium_eval_wants(t: Table, repo: Repo) -> Iterator:
+    """Per MO-Gymnasium evaluation, its agreement on the undiscounted returns as its
+    means and standard deviations give it (`reevaluation_agreement`), and the protocol's
+    HV of both sides at the protocol's preferences."""
+    for i, link in enumerate(t.links):
+        d = repo.json(link[0])
+        a = reevaluation_agreement(d)["return"]
+        big = a["largest_difference"]
+        yield i, "result", None
+        yield i, "task", [f"`{d['env']}`"]
+        yield i, "policies", [d["policies"]]
+        yield (
+            i,
+            "prefs x episodes (project's)",
+            [len(d["prefs"]), d["episodes"], d["project_episodes"]],
+        )
+        yield (
+            i,
+            "largest difference",
+            [big["difference"], d["objective_names"][big["objective"]], *big["pref"]],
+        )
+        for head, v in (
+            ("SE of mean", big["se_of_mean"]),
+            ("SE of difference", big["se"]),
+            ("its z", None if big["z"] is None else abs(big["z"])),
+            ("largest z", a["max_abs_z"]),
+        ):
+            yield i, head, ["–"] if v is None else [v]
+        yield i, "beyond 2 / 3 SE", [a["beyond_2se"], a["beyond_3se"], a["n"]]
+        name = d["run_config"].get("protocol")
+        if name is None or any(w == "preferences" for w, _ in reevaluation_departures(d)):
+            yield i, "protocol HV: MO-Gymnasium / project", ["–"]
+        else:
+            conv, key = FIELD_PROTOCOLS[name].convention, FIELD_PROTOCOLS[name].convention.returns
+            yield (
+                i,
+                "protocol HV: MO-Gymnasium / project",
+                [
+                    conv.score([r[key] for r in d["prefs"]])["hv"],
+                    conv.score([r["project"][key] for r in d["prefs"]])["hv"],
+                ],
+            )
+
+
 def row_links(t: Table, i: int) -> list[str]:
     """Every front row `i` of `t` links to, in order (a cell may hold several links)."""
     targets = [m.group(2) for m in LINK.finditer(t.raw_rows[i])]
@@ -1541,6 +2428,7 @@ DOC_TABLES: dict[str, Callable[[Table, Repo], Iterator] | str] = {
     "mo_mujoco_seed_prefs": mo_mujoco_seed_prefs_wants,
     "fronts_wall": fronts_wall_wants,
     "bench_cli": bench_cli_wants,
+    "mo_gymnasium_eval": mo_gymnasium_eval_wants,
     "exploration_bandit": "exploration.json: scores of a problem with a known answer",
     "exploration_dst": "exploration.json: scores of a problem with a known answer",
     "convergence": "convergence.json: gaps to an exactly solved optimum",

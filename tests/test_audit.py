@@ -6,6 +6,7 @@ audit must catch."""
 from __future__ import annotations
 
 import json
+import math
 import os
 import re
 import shutil
@@ -38,6 +39,12 @@ def test_the_audit_walks_every_front_and_reads_every_generated_block():
     # the headline blocks are recomputed, not waved through
     for name in ("glance", "conditioned", "mo_mujoco", "mo_mujoco_seeds", "cli_default"):
         assert callable(audit.DOC_TABLES[name]), name
+    # MO-Gymnasium's evaluations hold evaluated returns: walked, and claimed by a family
+    # that checks them as evaluations (no reference of their own), their table recomputed
+    assert f"{audit.RESULTS}/mo_gymnasium_eval/hopper.json" in fronts
+    (evaluations,) = [f for f in audit.FAMILIES if "mo_gymnasium_eval/*.json" in f.fronts]
+    assert evaluations.hv_ref is None and evaluations.own is audit.check_reevaluation
+    assert callable(audit.DOC_TABLES["mo_gymnasium_eval"])
 
 
 # ---------------------------------------------------------------------- by hand
@@ -86,6 +93,45 @@ def test_speed_from_a_walker_return_by_hand():
     assert lo == hi == pytest.approx((20 - 1 + 100) / 20)
 
 
+def test_the_published_grids_by_hand():
+    """The field's grids as its published code builds them: every point of the lattice
+    for two objectives; for three, the float sum of `arange`'s values drops the points
+    with 0.1 beside 0.2 and 0.7 or 0.3 and 0.6 (`0.30000000000000004`, ...)."""
+    assert len(audit.published_grid(2, 0.01)) == 101 and len(audit.published_grid(2, 0.005)) == 201
+    assert len(audit.published_grid(3, 0.1)) == 62 and len(audit.published_grid(3, 0.05)) == 217
+    kept = {tuple(np.round(w, 6)) for w in audit.published_grid(3, 0.1)}
+    dropped = {tuple(np.round(w, 6)) for w in audit.weight_grid(3, 0.1)} - kept
+    assert dropped == {(0.2, 0.7, 0.1), (0.3, 0.6, 0.1), (0.6, 0.3, 0.1), (0.7, 0.2, 0.1)}
+    # the evaluated preferences of a protocol are its grid, in the order written
+    assert audit.FIELD_PROTOCOLS["cmorl"].prefs(2)[:2].tolist() == [[0.0, 1.0], [0.01, 0.99]]
+
+
+def test_protocol_scores_by_hand():
+    """C-MORL's scores from -100 over every point; PGMORL's drop a point with a negative
+    objective, and one on an axis adds no volume; the Student-t interval of two values
+    is `mean +- t sd / sqrt(2)`, `t` the 97.5% quantile of one degree of freedom (the
+    Cauchy distribution's, `tan(0.475 pi)`)."""
+    pts = [[3.0, 1.0], [1.0, 3.0], [4.0, -1.0], [0.0, 5.0]]
+    c = audit.C_MORL.score(pts)
+    assert (c["kept"], c["nondominated"]) == (4, 4)
+    # from (-100, -100), by decreasing first objective: 104 x 99, 103 x 2, 101 x 2, 100 x 2
+    assert c["hv"] == pytest.approx(104 * 99 + 103 * 2 + 101 * 2 + 100 * 2)
+    w = np.linspace(0, 1, 101)
+    best = np.max([3 * w + (1 - w), w + 3 * (1 - w), 4 * w - (1 - w), 5 * (1 - w)], axis=0)
+    assert c["eu"] == pytest.approx(best.mean())
+    p = audit.PGMORL.score(pts)
+    assert (p["kept"], p["nondominated"]) == (3, 2)  # (0, 5) does not dominate the origin
+    assert p["hv"] == pytest.approx(3 * 1 + 1 * 2)
+    w = np.linspace(0, 1, 201)
+    best = np.max([3 * w + (1 - w), w + 3 * (1 - w), 5 * (1 - w)], axis=0)
+    assert p["eu"] == pytest.approx(best.mean())
+    assert audit.PGMORL.score([[-1.0, 2.0]]) == {"hv": 0.0, "eu": 0.0, "nondominated": 0, "kept": 0}
+    # [1, 3]: sd sqrt(2), so the half width is t itself
+    t = math.tan(0.475 * math.pi)
+    assert audit.t_interval([1.0, 3.0]) == pytest.approx((2.0, 2.0 - t, 2.0 + t))
+    assert audit.t_interval([5.0]) == (5.0, 5.0, 5.0)
+
+
 def test_printed_numbers_are_read_with_their_precision():
     got = audit.numbers("8,687,214 → 8,811,925 | −1,807 | 4.65e6 | 0.98 | `hopper-2obj` 3M p₀")
     assert [v for v, _ in got] == [8687214, 8811925, -1807, 4.65e6, 0.98]
@@ -118,13 +164,18 @@ def test_conventions_by_hand():
 # ---------------------------------------------------------------------- planted errors
 
 
+def _ignore(directory: str, names: list[str]) -> list[str]:
+    """Files the audit does not read: images, arrays, and Markdown other than the field's
+    tables."""
+    skip = shutil.ignore_patterns("*.png", "*.csv", "*.npz", "*.pkl", "*.md")(directory, names)
+    return [n for n in skip if n not in ("table.md", "ablation.md")]
+
+
 def _copy(tmp_path) -> str:
-    """The documents and the results' JSON files, copied."""
+    """The documents and the results' JSON files (and the field's Markdown tables), copied."""
     root = str(tmp_path / "repo")
     shutil.copytree(
-        os.path.join(ROOT, audit.RESULTS),
-        os.path.join(root, audit.RESULTS),
-        ignore=shutil.ignore_patterns("*.png", "*.csv", "*.npz", "*.pkl", "*.md"),
+        os.path.join(ROOT, audit.RESULTS), os.path.join(root, audit.RESULTS), ignore=_ignore
     )
     os.makedirs(os.path.join(root, "docs"))
     for doc in audit.DOCS:
@@ -296,3 +347,106 @@ def test_plant_a_summary_number_changed(tmp_path):
     summary = f"{R}/walker2d_front_practical_v5_e5x16/seed3/summary.json"
     _edit_json(root, summary, lambda d: d.update(directions={}))
     _fails(root, rf"{summary}: states no direction")
+
+
+FIELD = f"{R}/field"
+FIELD_FRONT = f"{FIELD}/cmorl/hopper-2obj/seed0/front.json"
+
+
+def test_plant_a_field_return_changed(tmp_path):
+    """The discounted return of hopper-2obj's seed-0 front that runs furthest forward, 1%
+    higher: the front's protocol HV and EU (C-MORL's, over the discounted returns from
+    -100), its own discounted hypervolume and the table's seed, mean and ratio no longer
+    follow."""
+    root = _copy(tmp_path)
+
+    def change(d):
+        row = max(d["prefs"], key=lambda r: r["discounted_return"][0])
+        row["discounted_return"][0] *= 1.01
+
+    _edit_json(root, FIELD_FRONT, change)
+    _fails(
+        root,
+        rf"{FIELD_FRONT} protocol hv:",
+        rf"{FIELD_FRONT} protocol eu:",
+        rf"{FIELD_FRONT} hypervolume_discounted",
+        r"field/table.json cmorl hopper-2obj seed 0 hv:",
+        r"field/table.json cmorl hopper-2obj hv mean",
+        r"field/table.json cmorl hopper-2obj ratio_to_best",
+    )
+
+
+def test_plant_the_field_tables_mean_changed(tmp_path):
+    """hopper-2obj's HV mean 0.1% higher in table.json, and printed 1.5e+05 for 1.4e+05 in
+    table.md: each no longer what its fronts give."""
+    root = _copy(tmp_path)
+    _edit_json(root, f"{FIELD}/table.json", lambda d: d["rows"][0]["hv"].update(mean=1.4001e5))
+    _edit_text(root, f"{FIELD}/table.md", "| 1.4e+05 [1.4e+05", "| 1.5e+05 [1.4e+05")
+    _fails(
+        root,
+        r"field/table.json cmorl hopper-2obj hv mean: states 140010",
+        r"field/table.md cmorl hopper-2obj 'HV mean \[95%\]': prints '1.5e\+05",
+    )
+
+
+def test_plant_the_ablations_ratio_changed(tmp_path):
+    """hopper-2obj's 10 x 32 variant against the defaults on seed 1: its ratio 1.2 in
+    ablation.json and 1.26 in ablation.md, where its HV gives 1.16."""
+    root = _copy(tmp_path)
+
+    def change(d):
+        for r in d["rows"]:
+            if (r["task"], r["variant"]) == ("hopper-2obj", "e10m32"):
+                r["ratio_to_default"] = 1.2
+
+    _edit_json(root, f"{FIELD}/ablation.json", change)
+    _edit_text(root, f"{FIELD}/ablation.md", "| 1.16 (1) |", "| 1.26 (1) |")
+    _fails(
+        root,
+        r"field/ablation.json cmorl hopper-2obj e10m32 ratio_to_default: states 1.2,",
+        r"field/ablation.md cmorl hopper-2obj e10m32 'vs default \(same seeds\)': prints '1.26",
+    )
+
+
+def test_plant_a_field_departure_and_a_published_budget(tmp_path):
+    """The table's front evaluated on 10 episodes per preference (C-MORL's Hopper-2d asks
+    5): a departure its `deviations` do not state, and a front the table must refuse;
+    and a published number filed at another budget."""
+    root = _copy(tmp_path)
+    _edit_json(root, FIELD_FRONT, lambda d: d["config"].update(eval_episodes=10))
+    _edit_json(root, f"{FIELD}/published.json", lambda d: d["entries"][0].update(budget=3_000_000))
+    _fails(
+        root,
+        rf"{FIELD_FRONT} protocol deviations: states \[\], its data give \[\('evaluation episodes'",
+        r"field/table.json cmorl hopper-2obj seed 0: departs from the protocol",
+        r"field/published.json entry 0 \('cmorl', 'hopper-2obj', 'PGMORL'\) budget",
+    )
+
+
+def test_plant_an_mo_gymnasium_agreement_changed(tmp_path):
+    """The MO-Gymnasium evaluations' agreement: hopper's largest difference stated at 2.1
+    standard errors (its means and standard deviations give 2.0); one standard deviation
+    of the humanoid's returns 10% higher (its standard error and the agreement at that
+    preference no longer follow); and docs/protocols.md printing ant's largest z 17.0 for
+    17.6."""
+    root = _copy(tmp_path)
+    hopper, humanoid = f"{R}/mo_gymnasium_eval/hopper.json", f"{R}/mo_gymnasium_eval/humanoid.json"
+    _edit_json(
+        root, hopper, lambda d: d["agreement"]["return"]["largest_difference"].update(z=-2.1)
+    )
+
+    def change(d):
+        big = d["agreement"]["return"]["largest_difference"]
+        row = next(r for r in d["prefs"] if r["pref"] == big["pref"])
+        row["return_std"][big["objective"]] *= 1.1
+
+    _edit_json(root, humanoid, change)
+    _edit_text(root, "docs/protocols.md", "| 7.2 | 17.6 |", "| 7.2 | 17.0 |")
+    _fails(
+        root,
+        rf"{hopper} agreement return largest_difference z: states -2.1,",
+        rf"{humanoid} pref \d+ return_se \[1\]",
+        rf"{humanoid} agreement return largest_difference se:",
+        r"docs/protocols.md table mo_gymnasium_eval row 5 'SE of difference'",
+        r"docs/protocols.md table mo_gymnasium_eval row 0 'largest z': prints '17.0'",
+    )
