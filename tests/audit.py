@@ -664,6 +664,19 @@ COLA_TABLE_1 = {
 }
 
 
+# D3PO (arXiv 2602.07764), its table of MO-Gymnasium v5 results on C-MORL's protocol
+# (1.5M env steps for 2 objectives, 2M for 3), mean of 5 seeds: per task, each method's
+# hypervolume; its C-MORL column is C-MORL's code re-run on v5.
+D3PO_SEEDS = 5
+D3PO_TABLE = {
+    "Hopper-2d": {"PGMORL": 1.20e5, "GPI-LS": 1.19e5, "C-MORL": 1.37e5, "D3PO": 1.30e5},
+    "Hopper-3d": {"PGMORL": 1.59e7, "GPI-LS": 1.70e7, "C-MORL": 2.19e7, "D3PO": 2.12e7},
+    "Ant-2d": {"PGMORL": 0.35e5, "GPI-LS": 1.17e5, "C-MORL": 1.31e5, "D3PO": 1.91e5},
+    "Ant-3d": {"PGMORL": 0.94e7, "GPI-LS": 0.55e7, "C-MORL": 2.61e7, "D3PO": 2.68e7},
+    "Humanoid-2d": {"PGMORL": 2.62e5, "GPI-LS": 1.98e5, "C-MORL": 3.43e5, "D3PO": 3.76e5},
+}
+
+
 def check_published(where: str, entries: list) -> Findings:
     """Published numbers as a results file cites them, against COLA's Table 1."""
     out = Findings()
@@ -1405,9 +1418,15 @@ def check_field_ablation_md(repo: Repo, rel: str) -> Findings:
 def check_field_published(repo: Repo, rel: str) -> Findings:
     """`published.json`: each entry a task of its protocol, on the task's definition and
     the protocol's budget, with a method, a positive hypervolume, its seeds and its
-    source, none twice; those from COLA's Table 1 as `COLA_TABLE_1` prints them (D3PO's
-    are checked for form only: the audit holds no copy of D3PO's table)."""
+    source, none twice; those from COLA's Table 1 as `COLA_TABLE_1` prints them, and on
+    C-MORL's protocol every one of D3PO's table (`D3PO_TABLE`), as it prints them, none
+    left out and no other."""
     out, seen = Findings(), set()
+    d3po = {
+        (env, method)
+        for env, task in FIELD_PROTOCOLS["cmorl"].tasks.items()
+        for method in D3PO_TABLE.get(task.published, {})
+    }
     for i, e in enumerate(repo.json(rel)["entries"]):
         key = (e.get("protocol"), e.get("task"), e.get("method"))
         w = f"{rel} entry {i} {key}"
@@ -1434,6 +1453,20 @@ def check_field_published(repo: Repo, rel: str) -> Findings:
                 out.append(f"{w}: not in COLA's Table 1")
             else:
                 out.close(f"{w} hv", hv, printed[0][0])
+        if key[0] != "cmorl":
+            continue
+        printed = D3PO_TABLE.get(task.published, {}).get(key[2])
+        if printed is None:
+            out.append(f"{w}: not in D3PO's table")
+            continue
+        if not (isinstance(source, str) and source.startswith("D3PO")):
+            out.append(f"{w} source: states {source!r}, the number is D3PO's table's")
+        if not isinstance(hv, int | float) or not math.isclose(hv, printed, rel_tol=RTOL):
+            out.append(f"{w} hv: states {hv!r}, D3PO's table prints {printed!r}")
+        out.equal(f"{w} seeds", seeds, D3PO_SEEDS)
+    stated = {(env, m) for p, env, m in seen if p == "cmorl"}
+    if d3po - stated:
+        out.append(f"{rel}: leaves out D3PO's {sorted(d3po - stated)}")
     return out
 
 
