@@ -9,9 +9,10 @@ recorded measurements (mean x velocity, wall seconds, env steps). It computes wi
 scipy's Spearman correlation and Student-t quantile, pymoo's hypervolume and the
 definitions written here (the field's protocols, `FIELD_PROTOCOLS`, as docs/protocols.md
 states them, their weight grids built as the published code builds them,
-`published_grid`); it imports nothing of `wcac_jax`, `experiments/` or `docs/tables.py`,
-so a wrong number in a summary, or a summariser that drifts from the definitions, cannot
-pass by agreeing with itself.
+`published_grid`; the published numbers as COLA's and D3PO's tables print them,
+`COLA_TABLE_1` and `D3PO_TABLE`); it imports nothing of `wcac_jax`, `experiments/` or
+`docs/tables.py`, so a wrong number in a summary, or a summariser that drifts from the
+definitions, cannot pass by agreeing with itself.
 
 `audit(root)` returns one line per stated number its data does not give (empty when
 all agree); `tests/test_audit.py` runs it on the repository and on copies with planted
@@ -1125,9 +1126,27 @@ def check_protocol_front(repo: Repo, rel: str, hv_ref) -> Findings:
     return out
 
 
+# the MO-Gymnasium evaluation `field.py run` writes beside a front of C-MORL's protocol
+FIELD_EVALUATION = "evaluation_mo_gymnasium.json"
+
+
+def field_evaluation(repo: Repo, front: str) -> str | None:
+    """The path of the MO-Gymnasium evaluation beside the front `front`, or `None`."""
+    rel = f"{os.path.dirname(front)}/{FIELD_EVALUATION}"
+    return rel if repo.exists(rel) else None
+
+
+def evaluation_score(d: dict, protocol: str) -> dict:
+    """An MO-Gymnasium evaluation's scores under `protocol`, from its own returns."""
+    conv = FIELD_PROTOCOLS[protocol].convention
+    return conv.score([row[conv.returns] for row in d["prefs"]])
+
+
 def field_row(repo: Repo, protocol: str, task: str, entries: list) -> dict:
-    """One protocol task's row of the field's table, from its fronts and the published
-    entries of the same protocol and task."""
+    """One protocol task's row of the field's table, from its fronts, the MO-Gymnasium
+    evaluations beside them and the published entries of the same protocol and task:
+    the HV's mean and interval over the seeds and its ratio to the best published, and
+    where every seed has an evaluation in MO-Gymnasium the same of its HV."""
     paths = field_fronts(repo, protocol, task)
     seeds = sorted(paths)
     fronts = [repo.front(paths[s]) for s in seeds]
@@ -1135,6 +1154,13 @@ def field_row(repo: Repo, protocol: str, task: str, entries: list) -> dict:
     hv = t_interval([s["hv"] for s in scores])
     published = [e for e in entries if (e["protocol"], e["task"]) == (protocol, task)]
     best = max(published, key=lambda e: e["hv"]) if published else None
+    evaluations = [field_evaluation(repo, paths[s]) for s in seeds]
+    mo_gymnasium = [
+        None if e is None else evaluation_score(repo.json(e), protocol) for e in evaluations
+    ]
+    hv_mo_gymnasium = None
+    if all(x is not None for x in mo_gymnasium):
+        hv_mo_gymnasium = t_interval([x["hv"] for x in mo_gymnasium])
     return {
         "seeds": seeds,
         "fronts": fronts,
@@ -1144,6 +1170,12 @@ def field_row(repo: Repo, protocol: str, task: str, entries: list) -> dict:
         "published": published,
         "best": best,
         "ratio": None if best is None else [v / best["hv"] for v in hv],
+        "evaluations": evaluations,
+        "mo_gymnasium": mo_gymnasium,
+        "hv_mo_gymnasium": hv_mo_gymnasium,
+        "ratio_mo_gymnasium": None
+        if best is None or hv_mo_gymnasium is None
+        else [v / best["hv"] for v in hv_mo_gymnasium],
     }
 
 
@@ -1164,7 +1196,10 @@ def check_field_table(repo: Repo, rel: str) -> Findings:
     each seed's protocol HV and EU, non-dominated count, env steps and seconds from its
     front (none departing from the protocol), the mean and 95% Student-t interval over
     the seeds, the published entries of the same protocol and task, the best of them
-    and the ratio of the mean (and its interval) to it."""
+    and the ratio of the mean (and its interval) to it; each seed's MO-Gymnasium HV, EU
+    and non-dominated count from the evaluation beside its front (none departing from
+    the protocol), and where every seed has one, that HV's mean, interval and ratio to
+    the best published."""
     s, out, base = repo.json(rel), Findings(), os.path.dirname(rel)
     for name, p in FIELD_PROTOCOLS.items():
         got, conv = s["protocols"].get(name, {}), p.convention
@@ -1189,7 +1224,17 @@ def check_field_table(repo: Repo, rel: str) -> Findings:
         p = FIELD_PROTOCOLS[name]
         row = field_row(repo, name, env, entries)
         by_seed = dict(
-            zip(row["seeds"], zip(row["fronts"], row["scores"], strict=True), strict=True)
+            zip(
+                row["seeds"],
+                zip(
+                    row["fronts"],
+                    row["scores"],
+                    row["evaluations"],
+                    row["mo_gymnasium"],
+                    strict=True,
+                ),
+                strict=True,
+            )
         )
         out.equal(
             f"{w} task, definition and budget",
@@ -1200,7 +1245,7 @@ def check_field_table(repo: Repo, rel: str) -> Findings:
         for x in r["seeds"]:
             if x["seed"] not in by_seed:
                 continue
-            (f, score), ws = by_seed[x["seed"]], f"{w} seed {x['seed']}"
+            (f, score, evaluation, mg), ws = by_seed[x["seed"]], f"{w} seed {x['seed']}"
             out.equal(f"{ws} path", x["path"], f.path)
             out.close(f"{ws} hv", x["hv"], score["hv"])
             out.close(f"{ws} eu", x["eu"], score["eu"])
@@ -1212,6 +1257,22 @@ def check_field_table(repo: Repo, rel: str) -> Findings:
             out.close(f"{ws} wall_s", x["wall_s"], f.data["wall_s"])
             if protocol_departures(f):
                 out.append(f"{ws}: departs from the protocol, yet stands in the table")
+            stated = x.get("mo_gymnasium")
+            if (stated is None) != (mg is None):
+                beside = evaluation or f"no {FIELD_EVALUATION} beside the front"
+                out.append(f"{ws} mo_gymnasium: states {stated!r}, its data give {mg!r} ({beside})")
+            elif mg is not None:
+                out.close(f"{ws} mo_gymnasium hv", stated.get("hv"), mg["hv"])
+                out.close(f"{ws} mo_gymnasium eu", stated.get("eu"), mg["eu"])
+                out.equal(
+                    f"{ws} mo_gymnasium nondominated",
+                    stated.get("nondominated"),
+                    mg["nondominated"],
+                )
+                if reevaluation_departures(repo.json(evaluation)):
+                    out.append(
+                        f"{ws}: {evaluation} departs from the protocol, yet stands in the table"
+                    )
         for key in ("hv", "eu"):
             mean, lo, hi = row[key]
             out.close(f"{w} {key} mean", r[key]["mean"], mean)
@@ -1229,6 +1290,33 @@ def check_field_table(repo: Repo, rel: str) -> Findings:
         stated = r["ratio_ci95"] or [None, None]
         out.close(f"{w} ratio_ci95 low", stated[0], ratio[1])
         out.close(f"{w} ratio_ci95 high", stated[1], ratio[2])
+        out.extend(check_hv_mo_gymnasium(f"{w} hv_mo_gymnasium", r.get("hv_mo_gymnasium"), row))
+    return out
+
+
+def check_hv_mo_gymnasium(where: str, stated: dict | None, row: dict) -> Findings:
+    """A row's `hv_mo_gymnasium`: `None` unless every seed has an MO-Gymnasium
+    evaluation; then the mean and interval of their HVs and, with a published number,
+    their ratio to the best (without one, no ratio)."""
+    out, want = Findings(), row["hv_mo_gymnasium"]
+    if stated is None or want is None:
+        if (stated is None) != (want is None):
+            out.append(f"{where}: states {stated!r}, its evaluations give {want!r}")
+        return out
+    out.close(f"{where} mean", stated.get("mean"), want[0])
+    ci = stated.get("ci95") or [None, None]
+    out.close(f"{where} ci95 low", ci[0], want[1])
+    out.close(f"{where} ci95 high", ci[1], want[2])
+    ratio = row["ratio_mo_gymnasium"]
+    if ratio is None:
+        out.equal(
+            f"{where} ratio", [stated.get("ratio_to_best"), stated.get("ratio_ci95")], [None, None]
+        )
+        return out
+    out.close(f"{where} ratio_to_best", stated.get("ratio_to_best"), ratio[0])
+    ci = stated.get("ratio_ci95") or [None, None]
+    out.close(f"{where} ratio_ci95 low", ci[0], ratio[1])
+    out.close(f"{where} ratio_ci95 high", ci[1], ratio[2])
     return out
 
 
@@ -1284,8 +1372,18 @@ def check_field_table_md(repo: Repo, rel: str) -> Findings:
             "eval env steps": [(min(earlier | {count}), count)],
             "wall s per seed": [f.data["wall_s"] for f in row["fronts"]],
         }
+        hv_mo_gymnasium = row["hv_mo_gymnasium"]
+        wants[(name, env)][MD_MO_GYMNASIUM] = (
+            ["—"] if hv_mo_gymnasium is None else list(hv_mo_gymnasium)
+        )
     header, rows = md_table(repo, rel)
+    if MD_MO_GYMNASIUM not in header:  # written before the evaluations were
+        for w in wants.values():
+            del w[MD_MO_GYMNASIUM]
     return check_md_rows(rel, header, rows, wants, 2)
+
+
+MD_MO_GYMNASIUM = "HV in MO-Gymnasium [95%]"
 
 
 def ablation_rows(repo: Repo, base: str) -> dict:
@@ -1386,6 +1484,19 @@ def check_field_ablation(repo: Repo, rel: str) -> Findings:
     return out
 
 
+def change_wants(changes: dict) -> list:
+    """What a variant's changes print: each changed field's name and value."""
+    numbers_, words = [], []
+    for k, c in changes.items():
+        words.append(k)
+        for v in c if isinstance(c, list) else [c]:
+            if isinstance(v, int | float) and not isinstance(v, bool):
+                numbers_.append(v)
+            else:
+                words.append(str(v))
+    return [*numbers_, *words]
+
+
 def check_field_ablation_md(repo: Repo, rel: str) -> Findings:
     """`ablation.md`: each variant's row from its fronts (its changes as `ablation.json`
     states them, checked there against the runs)."""
@@ -1396,15 +1507,8 @@ def check_field_ablation_md(repo: Repo, rel: str) -> Findings:
     }
     wants = {}
     for key, r in ablation_rows(repo, base).items():
-        changes = stated.get(key, {})
-        values = [
-            v
-            for c in changes.values()
-            for v in (c if isinstance(c, list) else [c])
-            if isinstance(v, int | float) and not isinstance(v, bool)
-        ]
         wants[key] = {
-            "changes": [*values, *changes],
+            "changes": change_wants(stated.get(key, {})),
             "seeds": r["seeds"],
             "HV mean [95%]": list(r["hv"]),
             "EU mean": [r["eu_mean"]],
@@ -1609,6 +1713,31 @@ def check_reevaluation(repo: Repo, rel: str, hv_ref=None) -> Findings:
     return out
 
 
+def check_field_reevaluation(repo: Repo, rel: str, hv_ref=None) -> Findings:
+    """The MO-Gymnasium evaluation `field.py run` writes beside a front: what every
+    evaluation states (`check_reevaluation`), and that it evaluated that front's run: its
+    configuration (with the env steps trained), and on the project's side the front's
+    own preferences, returns and lengths."""
+    out = check_reevaluation(repo, rel, hv_ref)
+    front = f"{os.path.dirname(rel)}/front.json"
+    if not repo.exists(front):
+        out.append(f"{rel}: no front beside it")
+        return out
+    d, f = repo.json(rel), repo.front(front)
+    want = {**f.data["config"], "env_steps_total": f.data["env_steps_total"]}
+    out.equal(f"{rel} run_config", d["run_config"], want)
+    out.equal(f"{rel} project_source", d.get("project_source"), "front.json")
+    out.equal(f"{rel} prefs", [row["pref"] for row in d["prefs"]], f.prefs.tolist())
+    for key, theirs in (("return", f.returns), ("discounted_return", f.discounted)):
+        ours = np.asarray([row["project"][key] for row in d["prefs"]], np.float64)
+        if ours.shape != theirs.shape or not np.allclose(ours, theirs, rtol=RTOL, atol=0):
+            out.append(f"{rel} project {key}: not the returns of {front}")
+    lengths = np.asarray([row["project"]["episode_length"] for row in d["prefs"]], np.float64)
+    if lengths.shape != f.lengths.shape or not np.allclose(lengths, f.lengths, rtol=RTOL):
+        out.append(f"{rel} project episode_length: not the lengths of {front}")
+    return out
+
+
 # ---------------------------------------------------------------------- families
 
 
@@ -1741,6 +1870,15 @@ FAMILIES = (
         ("mo_gymnasium_eval/*.json",),
         None,
         own=check_reevaluation,
+    ),
+    Family(
+        "field.py run: each C-MORL-protocol run re-run in MO-Gymnasium beside its front",
+        (
+            f"field/*/*/seed*/{FIELD_EVALUATION}",
+            f"field/ablation/*/*/*/seed*/{FIELD_EVALUATION}",
+        ),
+        None,
+        own=check_field_reevaluation,
     ),
 )
 

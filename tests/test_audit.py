@@ -45,6 +45,10 @@ def test_the_audit_walks_every_front_and_reads_every_generated_block():
     (evaluations,) = [f for f in audit.FAMILIES if "mo_gymnasium_eval/*.json" in f.fronts]
     assert evaluations.hv_ref is None and evaluations.own is audit.check_reevaluation
     assert callable(audit.DOC_TABLES["mo_gymnasium_eval"])
+    # the MO-Gymnasium evaluation beside a field front is claimed as an evaluation of it
+    (beside,) = [f for f in audit.FAMILIES if f.own is audit.check_field_reevaluation]
+    assert beside.hv_ref is None
+    assert f"field/*/*/seed*/{audit.FIELD_EVALUATION}" in beside.fronts
 
 
 # ---------------------------------------------------------------------- by hand
@@ -450,3 +454,66 @@ def test_plant_an_mo_gymnasium_agreement_changed(tmp_path):
         r"docs/protocols.md table mo_gymnasium_eval row 5 'SE of difference'",
         r"docs/protocols.md table mo_gymnasium_eval row 0 'largest z': prints '17.0'",
     )
+
+
+def _evaluation_of(front: dict, scale: float = 0.98) -> dict:
+    """A consistent MO-Gymnasium evaluation of a C-MORL-protocol front: its returns
+    `scale` times the front's, every episode the full 500 steps, 1.0 the standard
+    deviation of every return; the agreement and protocol scores as they follow."""
+    config, k = front["config"], front["config"]["eval_episodes"]
+    rows = []
+    for r in front["prefs"]:
+        row = {"pref": r["pref"], "episode_lengths": [500] * k}
+        row.update(episode_length=500.0, episode_length_std=0.0)
+        for kind in ("return", "discounted_return"):
+            row[kind] = [scale * v for v in r[kind]]
+            row[f"{kind}_std"] = [1.0] * len(r[kind])
+            row[f"{kind}_se"] = [1.0 / math.sqrt(k)] * len(r[kind])
+        row["project"] = {key: r[key] for key in ("return", "discounted_return", "episode_length")}
+        rows.append(row)
+    d = {
+        "env": front["env"],
+        "objective_names": front["objective_names"],
+        "mo_gymnasium_id": audit.MO_GYMNASIUM_IDS[front["env"]],
+        "mo_gymnasium_kwargs": {"max_episode_steps": 500},
+        "policies": "conditioned",
+        "episodes": k,
+        "project_episodes": k,
+        "project_source": "front.json",
+        "gamma": 0.99,
+        "run_config": {**config, "env_steps_total": front["env_steps_total"]},
+        "prefs": rows,
+    }
+    d["agreement"] = audit.reevaluation_agreement(d)
+    conv, scores = audit.C_MORL, {}
+    for side, pts in (
+        ("mo_gymnasium", [r["discounted_return"] for r in rows]),
+        ("project", [r["project"]["discounted_return"] for r in rows]),
+    ):
+        scores[side] = {key: conv.score(pts)[key] for key in ("hv", "eu", "nondominated", "kept")}
+    d["protocol"] = {"protocol": "cmorl", "returns": conv.returns, **scores, "deviations": []}
+    return d
+
+
+def test_plant_a_field_evaluation_the_tables_leave_out(tmp_path):
+    """An MO-Gymnasium evaluation beside hopper-2obj's seed-0 front (consistent with the
+    front, so it passes its own checks) that table.json does not set beside it; then its
+    project side no longer the front's returns."""
+    root = _copy(tmp_path)
+    evaluation = f"{os.path.dirname(FIELD_FRONT)}/{audit.FIELD_EVALUATION}"
+    with open(os.path.join(root, FIELD_FRONT)) as f:
+        front = json.load(f)
+    with open(os.path.join(root, evaluation), "w") as f:
+        json.dump(_evaluation_of(front), f)
+    findings = _fails(
+        root,
+        r"field/table.json cmorl hopper-2obj seed 0 mo_gymnasium: states None, its data give",
+        r"field/table.json cmorl hopper-2obj hv_mo_gymnasium: states None, its evaluations give",
+    )
+    assert not [line for line in findings if line.startswith(evaluation)], findings
+
+    def change(d):
+        d["prefs"][5]["project"]["discounted_return"][0] += 1.0
+
+    _edit_json(root, evaluation, change)
+    _fails(root, rf"{evaluation} project discounted_return: not the returns of {FIELD_FRONT}")
