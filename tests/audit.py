@@ -2023,12 +2023,17 @@ def compare(where: str, text: str, wants: list) -> Findings:
     return out
 
 
-def check_table(t: Table, wants: Iterable[tuple[int, str | int, list | None]]) -> Findings:
+def check_table(t: Table, wants: Iterable[tuple[int, str | int, list | None] | str]) -> Findings:
     """`wants`: `(row, column header or index, what the cell must print)` (`None`: a label,
-    or a number of another kind of result, said where yielded); every cell of every row
+    or a number of another kind of result, said where yielded), or a finding of the
+    table as a whole (a row its data give that it leaves out); every cell of every row
     must be named (row -1 is the header row)."""
     out, seen = Findings(), set()
-    for i, head, want in wants:
+    for item in wants:
+        if isinstance(item, str):
+            out.append(f"{t.doc} table {t.name}: {item}")
+            continue
+        i, head, want = item
         if isinstance(head, str) and head not in t.header:
             continue  # a column the table no longer has
         col = head if isinstance(head, int) else t.column(head)
@@ -2552,6 +2557,140 @@ def mo_gymnasium_eval_wants(t: Table, repo: Repo) -> Iterator:
             )
 
 
+def field_table_rows(repo: Repo) -> dict:
+    """`{(protocol, task): field_row}` of every protocol task with fronts under `FIELD`."""
+    entries = field_entries(repo, FIELD)
+    return {
+        (name, env): field_row(repo, name, env, entries)
+        for name, env in field_tasks(repo, FIELD)
+        if protocol_task(name, env) is not None
+    }
+
+
+def interval_want(values: tuple, n: int) -> list:
+    """A mean with its interval as the documents print it: the interval only over more
+    than one seed."""
+    return list(values) if n > 1 else [values[0]]
+
+
+def field_wants(t: Table, repo: Repo) -> Iterator:
+    """The field's table in docs/results.md, one row per protocol task with fronts, each
+    recomputed from its fronts, the MO-Gymnasium evaluations beside them and the
+    published entries: the seeds, the HV's mean (its interval over more than one seed),
+    PGMORL's published HV, the best published one and the ratio to it, the evaluations'
+    mean HV and its ratio, the first seed's env steps trained and evaluated, and the
+    seconds per seed (their range over more than one)."""
+    rows, printed = field_table_rows(repo), []
+    for i, cells in enumerate(t.rows):
+        key = (cells[t.column("protocol")], cells[t.column("task")].strip("`"))
+        printed.append(key)
+        yield i, "protocol", None
+        yield i, "task", None
+        row = rows.get(key)
+        if row is None:
+            yield f"row {i} {' '.join(key)}: no fronts of that protocol and task"
+            for head in t.header[2:]:
+                yield i, head, None
+            continue
+        n, first = len(row["seeds"]), row["fronts"][0]
+        best, mg, mg_ratio = row["best"], row["hv_mo_gymnasium"], row["ratio_mo_gymnasium"]
+        pgmorl = next((e for e in row["published"] if e["method"] == "PGMORL"), None)
+        walls = [f.data["wall_s"] for f in row["fronts"]]
+        count, earlier = eval_steps(first)
+        yield i, "published as", [protocol_task(*key).published]
+        yield i, "seeds", row["seeds"]
+        yield i, "HV mean [95%]", interval_want(row["hv"], n)
+        yield i, "PGMORL", ["–"] if pgmorl is None else [pgmorl["hv"]]
+        yield i, "best published", ["–"] if best is None else [best["method"], best["hv"]]
+        yield (
+            i,
+            "ratio [95%]",
+            ["none published"] if best is None else interval_want(row["ratio"], n),
+        )
+        yield (
+            i,
+            "in MO-Gymnasium: HV, ratio",
+            ["–"] if mg is None else [mg[0], *([] if mg_ratio is None else [mg_ratio[0]])],
+        )
+        yield i, "env steps trained", [first.data["env_steps_total"]]
+        yield i, "eval env steps", [(min(earlier | {count}), count)]
+        yield i, "wall s per seed", [min(walls), max(walls)] if n > 1 else walls
+    for key in rows:
+        if printed.count(key) != 1:
+            yield f"{' '.join(key)} has fronts: printed in {printed.count(key)} rows, not one"
+
+
+def field_glance_wants(t: Table, repo: Repo) -> Iterator:
+    """The field at a glance in the README, one row per protocol: per task it names (each
+    with fronts, none left out) the HV's mean, the best published number and the ratio
+    to it (its interval over more than one seed), and the seeds."""
+    rows, printed = field_table_rows(repo), set()
+    for i, cells in enumerate(t.rows):
+        name = cells[0]
+        printed.add(name)
+        names = re.findall(r"`([\w-]+)`", cells[1])
+        want = []
+        for env in names:
+            row = rows.get((name, env))
+            if row is None:
+                yield f"row {i} prints {name} {env}, which has no fronts"
+                continue
+            want += [f"`{env}`", row["hv"][0]]
+            best = row["best"]
+            if best is None:
+                want.append("no published number")
+            else:
+                want += [
+                    best["method"],
+                    best["hv"],
+                    *interval_want(row["ratio"], len(row["seeds"])),
+                ]
+            want += row["seeds"]
+        for p, env in rows:
+            if p == name and env not in names:
+                yield f"row {i} leaves out {name} {env}, which has fronts"
+        yield i, 0, None
+        yield i, 1, want
+    for p in sorted({p for p, _ in rows} - printed):
+        yield f"leaves out the protocol {p}, which has fronts"
+
+
+def field_ablation_wants(t: Table, repo: Repo) -> Iterator:
+    """The ablation in docs/results.md, one row per task and variant with fronts, each
+    recomputed from its fronts (`ablation_rows`; its changes as `ablation.json` states
+    them, checked there against the runs): the seeds, the HV's mean (its interval over
+    more than one seed), the ratio to the `default` variant on the seeds both ran and
+    the seconds per seed."""
+    rows, printed = ablation_rows(repo, FIELD), []
+    stated = {
+        (r["protocol"], r["task"], r["variant"]): r["changes"] or {}
+        for r in repo.json(f"{FIELD}/ablation.json")["rows"]
+    }
+    for i, cells in enumerate(t.rows):
+        key = tuple(cells[t.column(h)].strip("`") for h in ("protocol", "task", "variant"))
+        printed.append(key)
+        for head in ("protocol", "task", "variant"):
+            yield i, head, None
+        r = rows.get(key)
+        if r is None:
+            yield f"row {i} {' '.join(key)}: no fronts of that variant"
+            for head in t.header[3:]:
+                yield i, head, None
+            continue
+        yield i, "changes", change_wants(stated.get(key, {})) or ["–"]
+        yield i, "seeds", r["seeds"]
+        yield i, "HV mean [95%]", interval_want(r["hv"], len(r["seeds"]))
+        yield (
+            i,
+            "vs default (same seeds)",
+            ["–"] if r["ratio"] is None else [r["ratio"], *r["paired"]],
+        )
+        yield i, "wall s", [f.data["wall_s"] for f in r["fronts"]]
+    for key in rows:
+        if printed.count(key) != 1:
+            yield f"{' '.join(key)} has fronts: printed in {printed.count(key)} rows, not one"
+
+
 def row_links(t: Table, i: int) -> list[str]:
     """Every front row `i` of `t` links to, in order (a cell may hold several links)."""
     targets = [m.group(2) for m in LINK.finditer(t.raw_rows[i])]
@@ -2600,6 +2739,9 @@ DOC_TABLES: dict[str, Callable[[Table, Repo], Iterator] | str] = {
     "fronts_wall": fronts_wall_wants,
     "bench_cli": bench_cli_wants,
     "mo_gymnasium_eval": mo_gymnasium_eval_wants,
+    "field": field_wants,
+    "field_glance": field_glance_wants,
+    "field_ablation": field_ablation_wants,
     "exploration_bandit": "exploration.json: scores of a problem with a known answer",
     "exploration_dst": "exploration.json: scores of a problem with a known answer",
     "convergence": "convergence.json: gaps to an exactly solved optimum",

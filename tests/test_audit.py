@@ -45,7 +45,10 @@ def test_the_audit_walks_every_front_and_reads_every_generated_block():
     (evaluations,) = [f for f in audit.FAMILIES if "mo_gymnasium_eval/*.json" in f.fronts]
     assert evaluations.hv_ref is None and evaluations.own is audit.check_reevaluation
     assert callable(audit.DOC_TABLES["mo_gymnasium_eval"])
-    # the MO-Gymnasium evaluation beside a field front is claimed as an evaluation of it
+    # the field's tables in the documents are recomputed from the fronts, and the
+    # MO-Gymnasium evaluation beside a field front is claimed as an evaluation of it
+    for name in ("field", "field_glance", "field_ablation"):
+        assert callable(audit.DOC_TABLES[name]), name
     (beside,) = [f for f in audit.FAMILIES if f.own is audit.check_field_reevaluation]
     assert beside.hv_ref is None
     assert f"field/*/*/seed*/{audit.FIELD_EVALUATION}" in beside.fronts
@@ -456,6 +459,28 @@ def test_plant_an_mo_gymnasium_agreement_changed(tmp_path):
     )
 
 
+def test_plant_the_field_tables_in_the_documents_changed(tmp_path):
+    """The README's glance at the field printing hopper-2obj's ratio to C-MORL 1.12 for
+    1.02, docs/results.md's field table printing PGMORL's published Hopper-2d HV 1.30e5
+    for 1.20e5, and its ablation printing the 10 x 32 variant's ratio to the defaults
+    1.26 for 1.16."""
+    root = _copy(tmp_path)
+    _edit_text(
+        root, "README.md", "(C-MORL 1.37e5: 1.02; seeds 0)", "(C-MORL 1.37e5: 1.12; seeds 0)"
+    )
+    _edit_text(root, "docs/results.md", "| 1.40e5 | 1.20e5 |", "| 1.40e5 | 1.30e5 |")
+    _edit_text(root, "docs/results.md", "| 1.16 (seeds 1) |", "| 1.26 (seeds 1) |")
+    findings = _fails(
+        root,
+        r"README.md table field_glance row 0 .*: prints '`hopper-2obj` 1.40e5 \(C-MORL 1.37e5: "
+        r"1.12; seeds 0\)'",
+        r"docs/results.md table field row 0 'PGMORL': prints '1.30e5', its data give \[120000.0\]",
+        r"docs/results.md table field_ablation row \d+ 'vs default \(same seeds\)': prints "
+        r"'1.26 \(seeds 1\)'",
+    )
+    assert len(findings) == 3, findings
+
+
 def _evaluation_of(front: dict, scale: float = 0.98) -> dict:
     """A consistent MO-Gymnasium evaluation of a C-MORL-protocol front: its returns
     `scale` times the front's, every episode the full 500 steps, 1.0 the standard
@@ -497,8 +522,8 @@ def _evaluation_of(front: dict, scale: float = 0.98) -> dict:
 
 def test_plant_a_field_evaluation_the_tables_leave_out(tmp_path):
     """An MO-Gymnasium evaluation beside hopper-2obj's seed-0 front (consistent with the
-    front, so it passes its own checks) that table.json does not set beside it; then its
-    project side no longer the front's returns."""
+    front, so it passes its own checks) that table.json and docs/results.md do not set
+    beside it; then its project side no longer the front's returns."""
     root = _copy(tmp_path)
     evaluation = f"{os.path.dirname(FIELD_FRONT)}/{audit.FIELD_EVALUATION}"
     with open(os.path.join(root, FIELD_FRONT)) as f:
@@ -509,6 +534,7 @@ def test_plant_a_field_evaluation_the_tables_leave_out(tmp_path):
         root,
         r"field/table.json cmorl hopper-2obj seed 0 mo_gymnasium: states None, its data give",
         r"field/table.json cmorl hopper-2obj hv_mo_gymnasium: states None, its evaluations give",
+        r"docs/results.md table field row 0 'in MO-Gymnasium: HV, ratio': prints '–'",
     )
     assert not [line for line in findings if line.startswith(evaluation)], findings
 
