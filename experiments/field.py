@@ -44,7 +44,7 @@ import sys
 import numpy as np
 
 from wcac_jax import protocols
-from wcac_jax.outputs import json_bytes, write_atomic
+from wcac_jax.sweep.outputs import json_bytes, write_atomic
 
 # The ablation's variants: fields of the conditioned update changed from its defaults
 # (`ConditionedConfig()`), each a choice around the method (its direction, smooth_wc,

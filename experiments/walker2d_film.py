@@ -41,9 +41,10 @@ import numpy as np  # noqa: E402
 import walker2d_common as common  # noqa: E402
 from matplotlib import animation  # noqa: E402
 
-from wcac_jax import plot, render  # noqa: E402
-from wcac_jax.outputs import json_bytes, unwritable_dir, write_atomic  # noqa: E402
+from wcac_jax import plot  # noqa: E402
+from wcac_jax.evaluate import render  # noqa: E402
 from wcac_jax.sweep import SweepError, load_sweep  # noqa: E402
+from wcac_jax.sweep.outputs import json_bytes, unwritable_dir, write_atomic  # noqa: E402
 
 FILES = ("film.gif", "film.png", "film.json")
 

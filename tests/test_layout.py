@@ -52,8 +52,8 @@ GRAPH = {name: _imports(name) for name in MODULES}
 
 
 def test_the_package_is_read():
-    assert {"wcac_jax.sweep.run", "wcac_jax.runtime", "wcac_jax.envs.base"} <= set(MODULES)
-    assert "wcac_jax.runtime" in GRAPH["wcac_jax.algos.practical"]
+    assert {"wcac_jax.sweep.run", "wcac_jax.core.runtime", "wcac_jax.envs.base"} <= set(MODULES)
+    assert "wcac_jax.core.runtime" in GRAPH["wcac_jax.algos.practical"]
 
 
 def test_no_import_cycle():
@@ -80,15 +80,15 @@ def test_no_import_cycle():
 @pytest.mark.parametrize(
     "low, high",
     [
-        ("wcac_jax.scalarize", "flax"),
+        ("wcac_jax.core.scalarize", "flax"),
         ("wcac_jax.pareto", "jax"),
         ("wcac_jax.envs", "wcac_jax.algos"),
-        ("wcac_jax.envs", "wcac_jax.runtime"),
+        ("wcac_jax.envs", "wcac_jax.core.runtime"),
         ("wcac_jax.envs", "wcac_jax.sweep"),
-        ("wcac_jax.runtime", "wcac_jax.algos"),
-        ("wcac_jax.runtime", "wcac_jax.sweep"),
+        ("wcac_jax.core.runtime", "wcac_jax.algos"),
+        ("wcac_jax.core.runtime", "wcac_jax.sweep"),
         ("wcac_jax.algos", "wcac_jax.sweep"),
-        ("wcac_jax.sweep", "wcac_jax.cli"),
+        ("wcac_jax.sweep", "wcac_jax.sweep.cli"),
     ],
 )
 def test_dependencies_point_one_way(low, high):
