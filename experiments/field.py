@@ -42,6 +42,7 @@ import subprocess
 import sys
 
 import numpy as np
+from script_io import refuse_existing
 
 from wcac_jax import protocols
 from wcac_jax.sweep.outputs import json_bytes, write_atomic
@@ -409,9 +410,7 @@ def main(argv=None) -> int:
             return 2
         return run(args.results, args.protocol, args.env, args.seeds, args.resume, args.overwrite)
     target = os.path.join(args.results, "table.json")
-    if os.path.exists(target) and not args.overwrite:
-        print(f"error: {target} exists (--overwrite replaces it)", file=sys.stderr)
-        return 2
+    refuse_existing(target, args.overwrite, flag="")
     try:
         summary = summarize(args.results)
     except TableError as err:
