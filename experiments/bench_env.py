@@ -26,8 +26,8 @@ import numpy as np
 from script_io import refuse_existing
 
 from wcac_jax import envs
-from wcac_jax.envs.wrappers import EpisodeWrapper
-from wcac_jax.outputs import json_bytes, write_atomic
+from wcac_jax.core.episodes import EpisodeWrapper
+from wcac_jax.sweep.outputs import json_bytes, write_atomic
 
 
 def bench_stepping(env, batch: int, steps: int, seed: int = 0) -> dict:

@@ -127,7 +127,7 @@ def main(argv=None) -> int:
         "results": results,
     }
     if args.out:
-        from wcac_jax.outputs import json_bytes, write_atomic
+        from wcac_jax.sweep.outputs import json_bytes, write_atomic
 
         os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
         write_atomic(args.out, json_bytes(record))

@@ -44,9 +44,9 @@ from script_io import refuse_existing
 
 from wcac_jax import envs, pareto
 from wcac_jax.algos import PaperConfig, PracticalConfig, make_trainer
-from wcac_jax.envs.wrappers import EpisodeWrapper
-from wcac_jax.outputs import json_bytes, write_atomic
-from wcac_jax.utopia import PREF_AXIS
+from wcac_jax.core.episodes import EpisodeWrapper
+from wcac_jax.core.utopia import PREF_AXIS
+from wcac_jax.sweep.outputs import json_bytes, write_atomic
 
 _LAST_CORES = {}
 

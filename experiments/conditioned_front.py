@@ -96,7 +96,7 @@ def front_metrics(front: dict) -> dict:
 def run_arm(arm: str, seed: int, work: str, out: str) -> dict:
     """One command-line sweep of `arm` at `seed` in `work`, its small files copied to
     `out/<arm>/seed<seed>`; returns what the command's front says, with the load."""
-    from wcac_jax import cli
+    from wcac_jax.sweep import cli
 
     run_dir = os.path.join(work, arm, f"seed{seed}")
     dest = os.path.join(out, arm, f"seed{seed}")
@@ -123,7 +123,7 @@ def run_arm(arm: str, seed: int, work: str, out: str) -> dict:
         "process_s": seconds,
         "cpus": os.cpu_count(),
     }
-    from wcac_jax.outputs import write_atomic  # imported late, as every wcac_jax module here
+    from wcac_jax.sweep.outputs import write_atomic  # imported late, as every wcac_jax module here
 
     write_atomic(recorded, (json.dumps(machine, indent=1)).encode())
     return machine
@@ -131,7 +131,7 @@ def run_arm(arm: str, seed: int, work: str, out: str) -> dict:
 
 def copy_atomic(src: str, directory: str) -> None:
     """`src` copied into `directory` under its own name, atomically."""
-    from wcac_jax.outputs import write_atomic
+    from wcac_jax.sweep.outputs import write_atomic
 
     with open(src, "rb") as f:
         write_atomic(os.path.join(directory, os.path.basename(src)), f.read())
@@ -181,7 +181,7 @@ def read_fronts(out: str, reuse_9x1m: str | None) -> dict:
 
 
 def summarize(out: str, reuse_9x1m: str | None, cost: list | None) -> dict:
-    from wcac_jax.outputs import write_atomic
+    from wcac_jax.sweep.outputs import write_atomic
 
     fronts = read_fronts(out, reuse_9x1m)
     per_run = {

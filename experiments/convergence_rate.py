@@ -29,7 +29,7 @@ import numpy as np
 
 from wcac_jax import envs, scalarize
 from wcac_jax.algos import PaperConfig, make_trainer
-from wcac_jax.outputs import out_refusal, replace_dir, staging_dir
+from wcac_jax.sweep.outputs import out_refusal, replace_dir, staging_dir
 
 PREFS = ((0.2, 0.8), (0.5, 0.5), (0.8, 0.2))
 BASE = PaperConfig(

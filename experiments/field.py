@@ -49,9 +49,10 @@ import subprocess
 import sys
 
 import numpy as np
+from script_io import refuse_existing
 
 from wcac_jax import protocols
-from wcac_jax.outputs import json_bytes, write_atomic
+from wcac_jax.sweep.outputs import json_bytes, write_atomic
 
 # The ablation's variants: fields of the conditioned update changed from its defaults
 # (`ConditionedConfig()`), each a choice around the method (its direction, smooth_wc,
@@ -482,9 +483,7 @@ def main(argv=None) -> int:
             not args.no_reference_eval,
         )
     target = os.path.join(args.results, "table.json")
-    if os.path.exists(target) and not args.overwrite:
-        print(f"error: {target} exists (--overwrite replaces it)", file=sys.stderr)
-        return 2
+    refuse_existing(target, args.overwrite, flag="")
     try:
         summary = summarize(args.results)
     except TableError as err:

@@ -26,12 +26,12 @@ import jax.numpy as jnp
 import kuairand_table2
 import numpy as np
 
-from wcac_jax.outputs import out_refusal, replace_dir, staging_dir
 from wcac_jax.recsys import ncis as ncis_lib
 from wcac_jax.recsys import offline, table2
 from wcac_jax.recsys.cli import ArgumentParser
 from wcac_jax.recsys.data import PROTOCOLS, load
 from wcac_jax.recsys.synth import MODEL_FILE, ResponseModel
+from wcac_jax.sweep.outputs import out_refusal, replace_dir, staging_dir
 
 SIGMAS = (25.0, 10.0, 5.0, 2.0, 0.5)
 

@@ -66,7 +66,6 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from wcac_jax.outputs import unwritable_dir, write_atomic
 from wcac_jax.recsys import alg1, offline, stats
 from wcac_jax.recsys import ncis as ncis_lib
 from wcac_jax.recsys.cli import ArgumentParser
@@ -87,6 +86,7 @@ from wcac_jax.recsys.table2 import (
     train_data_set,
     truth_tables,
 )
+from wcac_jax.sweep.outputs import unwritable_dir, write_atomic
 
 # Table 2's column scales, as the paper prints them
 COLUMNS = (

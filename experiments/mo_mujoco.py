@@ -69,7 +69,7 @@ SINGLE_OBJECTIVE = {
     "ant-2obj": "Ant-v5",
     "humanoid": "Humanoid-v5",
 }
-# each task's env-step budget per policy, its preset's (`wcac_jax.presets.ENV_DEFAULTS`,
+# each task's env-step budget per policy, its preset's (`wcac_jax.sweep.presets.ENV_DEFAULTS`,
 # which a test holds this equal to; `ppo` runs in sbx's Python and imports nothing of
 # wcac_jax): 3M for the humanoid, which walks at neither method's 1M
 BUDGET = {env: 1_000_000 for env in SINGLE_OBJECTIVE} | {"humanoid": 3_000_000}
@@ -436,7 +436,7 @@ def write_table(summary: dict, results: str) -> None:
         "Published numbers: beside fronts trained under the field's protocols on the same "
         "task definitions, in `experiments/results/field/` (`experiments/field.py`).",
     ]
-    from wcac_jax.outputs import write_atomic
+    from wcac_jax.sweep.outputs import write_atomic
 
     os.makedirs(results, exist_ok=True)
     write_atomic(os.path.join(results, "table.md"), ("\n".join(lines) + "\n").encode())

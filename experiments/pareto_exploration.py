@@ -36,13 +36,13 @@ import numpy as np
 
 from wcac_jax import envs, pareto, presets
 from wcac_jax.algos import make_trainer
+from wcac_jax.core.runtime import TRACED_DIRECTIONS
 from wcac_jax.envs import concave_bandit as cb
 from wcac_jax.envs import deep_sea_treasure as dst_env
-from wcac_jax.outputs import out_refusal, replace_dir, staging_dir
-from wcac_jax.runtime import TRACED_DIRECTIONS
+from wcac_jax.sweep.outputs import out_refusal, replace_dir, staging_dir
 
 DIRECTIONS = ("smooth_wc", "wc", "linear", "mgda")
-# The environments' own tuned settings (`wcac_jax.presets`, the CLI's defaults for them),
+# The environments' own tuned settings (`wcac_jax.sweep.presets`, the CLI's defaults for them),
 # for the iterations this study runs: the bandit with a fixed small policy noise (with a
 # learned std the expected-return front of stochastic policies is the convex hull); Deep
 # Sea Treasure with Adam on d and a smaller critic step.

@@ -127,7 +127,7 @@ def make_ppo(make_env, seed: int):
 
 def write_atomic(path: str, data: bytes) -> None:
     """`data` written to a temporary file beside `path`, then renamed over it (as
-    `wcac_jax.outputs.write_atomic`, which this script's own environment lacks)."""
+    `wcac_jax.sweep.outputs.write_atomic`, which this script's own environment lacks)."""
     fd, tmp = tempfile.mkstemp(dir=os.path.dirname(os.path.abspath(path)), prefix=".tmp-")
     umask = os.umask(0)
     os.umask(umask)

@@ -33,7 +33,7 @@ def make_out(
     `finish_out` renames over it. With `resume_adds` (a run that adds parts to `out`)
     `resume` may start an empty `out`; otherwise it needs a run to continue. Refuses
     (exit 2, one line) before any training."""
-    from wcac_jax.outputs import fresh_staging_dir  # (the library loads when it is needed)
+    from wcac_jax.sweep.outputs import fresh_staging_dir  # (the library loads when it is needed)
 
     does = "adds to it" if resume_adds else "continues an interrupted run"
     if resume and overwrite:
@@ -57,7 +57,7 @@ def make_out(
 
 def finish_out(work: str, out: str) -> None:
     """Puts the finished results in place: `work` (`make_out`'s) renamed over `out`."""
-    from wcac_jax.outputs import replace_dir
+    from wcac_jax.sweep.outputs import replace_dir
 
     if os.path.abspath(work) != os.path.abspath(out):
         replace_dir(work, out)

@@ -33,8 +33,8 @@ import walker2d_common as common  # noqa: E402
 from matplotlib.ticker import EngFormatter  # noqa: E402
 
 from wcac_jax import plot  # noqa: E402
-from wcac_jax.outputs import write_atomic  # noqa: E402
 from wcac_jax.sweep import SweepConfig  # noqa: E402
+from wcac_jax.sweep.outputs import write_atomic  # noqa: E402
 
 PREF = (0.9, 0.1)
 

@@ -18,17 +18,18 @@ import jax
 import numpy as np
 from script_io import fail, finish_out, make_out  # noqa: F401 (the Walker2d scripts' own)
 
-from wcac_jax import cli, envs, pareto, presets
+from wcac_jax import envs, pareto, presets
 from wcac_jax.algos import PaperConfig
-from wcac_jax.outputs import library_versions
 from wcac_jax.sweep import (
     SweepConfig,
     SweepError,
     TrainingDiverged,
     check_output_dir,
+    cli,
     default_hv_ref,
     run_sweep,
 )
+from wcac_jax.sweep.outputs import library_versions
 
 PAPER_STEPS_PER_PREF = 1_000_000
 SMOOTH_STEPS = 500  # the paper smooths its learning curves over 500 environment steps
@@ -52,7 +53,7 @@ CONFIGS = {
     # iteration and are never projected (what `paper` meant before the paper's own
     # Algorithm 2 became the default; the Walker2d results recorded before then).
     "paper-warm": PaperConfig(critic_warm_start=True, projection_radius=math.inf),
-    # The practical preset (wcac_jax.presets): the same smoothed weighted-Chebyshev
+    # The practical preset (wcac_jax.sweep.presets): the same smoothed weighted-Chebyshev
     # direction, optimised as PPO (GAE, clipped ratio, 5 epochs x 16 minibatches, Adam,
     # observation and return normalisation, 128x128 tanh networks, a utopia point the sweep
     # estimates from all preferences). A different update, not a paper setting.
@@ -96,7 +97,7 @@ def train_config(name: str, **changes) -> PaperConfig:
 
 def config_with_flags(name: str, args, **changes):
     """The named configuration `name` with `changes` and then the sweep CLI's config flags
-    in `args` (`wcac_jax.cli.apply_config_flags`) applied, or a one-line exit naming the
+    in `args` (`wcac_jax.sweep.cli.apply_config_flags`) applied, or a one-line exit naming the
     bad flag or value."""
     try:
         return cli.apply_config_flags(args, train_config(name, **changes), f"--config {name}")

@@ -40,10 +40,12 @@ import jax  # noqa: E402
 import numpy as np  # noqa: E402
 import walker2d_common as common  # noqa: E402
 from matplotlib import animation  # noqa: E402
+from script_io import refuse_existing  # noqa: E402
 
-from wcac_jax import plot, render  # noqa: E402
-from wcac_jax.outputs import json_bytes, unwritable_dir, write_atomic  # noqa: E402
+from wcac_jax import plot  # noqa: E402
+from wcac_jax.evaluate import render  # noqa: E402
 from wcac_jax.sweep import SweepError, load_sweep  # noqa: E402
+from wcac_jax.sweep.outputs import json_bytes, unwritable_dir, write_atomic  # noqa: E402
 
 FILES = ("film.gif", "film.png", "film.json")
 
@@ -119,9 +121,7 @@ def main(argv=None) -> int:
     if problem:
         common.fail(f"--out {out!r} can't be written ({problem})")
     for name in FILES:  # refused before any work: another run's films stay as they are
-        path = os.path.join(out, name)
-        if os.path.lexists(path) and not args.overwrite:
-            common.fail(f"{path!r} exists (--overwrite replaces it)")
+        refuse_existing(os.path.join(out, name), args.overwrite, flag="")
     try:
         run = load_sweep(args.run)
     except SweepError as err:

@@ -20,7 +20,7 @@ order?); wall and compile seconds; the machine.
         --out runs/final    # report the final policies instead
 
 With `--config practical`, each preference reports its best of its last 5 policies,
-20,480 env steps apart, as the sweep CLI's Walker2d default does (`wcac_jax.selection`;
+20,480 env steps apart, as the sweep CLI's Walker2d default does (`wcac_jax.sweep.selection`;
 the final policy when `--scale` leaves no room for them); `--select-last 1` reports
 the final policies, as the committed `walker2d_front_practical_*` results without
 `select5` in their name did (experiments/README.md: the command behind each result).
@@ -46,9 +46,9 @@ matplotlib.use("Agg")
 import numpy as np  # noqa: E402
 import walker2d_common as common  # noqa: E402
 
-from wcac_jax import cli, pareto, plot, presets  # noqa: E402
-from wcac_jax.outputs import write_atomic  # noqa: E402
-from wcac_jax.sweep import PAPER_PREFS, SweepError  # noqa: E402
+from wcac_jax import pareto, plot, presets  # noqa: E402
+from wcac_jax.sweep import PAPER_PREFS, SweepError, cli  # noqa: E402
+from wcac_jax.sweep.outputs import write_atomic  # noqa: E402
 
 HV_REF_RULE = (
     "hypervolume of the undiscounted evaluated returns; reference point per objective a "
@@ -100,7 +100,7 @@ def direction_summary(front: dict) -> dict:
         "env_steps_per_s": front["env_steps_per_s"],
         "compile_s": front["compile_s"],
         # with --select-last > 1: the iteration of each reported policy, the candidates'
-        # evaluated returns and the env steps their evaluation took (`wcac_jax.selection`)
+        # evaluated returns and the env steps their evaluation took (`wcac_jax.sweep.selection`)
         **({"selection": front["selection"]} if "selection" in front else {}),
     }
 
@@ -158,7 +158,7 @@ def main(argv=None) -> int:
     # the sweep CLI's training-config flags (--width, --depth, --j-ub, --utopia-margin,
     # --learning-rate, ...): each changes the named --config (recorded in summary.json)
     cli.add_config_flags(p, skip=("envs_per_pref", "scalarization"))
-    cli.add_selection_flags(p)  # wcac_jax.selection
+    cli.add_selection_flags(p)  # wcac_jax.sweep.selection
     p.add_argument(
         "--resummarize",
         action="store_true",

@@ -4,7 +4,8 @@ of `python -m wcac_jax.sweep`, `--coordinator` and `--out` included)."""
 
 import sys
 
-from wcac_jax import cli, distributed, sweep
+from wcac_jax import sweep
+from wcac_jax.sweep import cli, distributed
 
 args = cli.build_parser().parse_args(sys.argv[1:])
 distributed.initialize(

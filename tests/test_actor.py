@@ -7,8 +7,8 @@ import optax
 import pytest
 
 from wcac_jax import actor, scalarize
+from wcac_jax.core.networks import NetParams, gaussian_log_prob
 from wcac_jax.envs import concave_bandit
-from wcac_jax.networks import NetParams, gaussian_log_prob
 
 SIGMA = 0.2
 

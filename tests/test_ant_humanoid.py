@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from wcac_jax import envs, networks
+from wcac_jax.core.episodes import EpisodeWrapper
 from wcac_jax.envs import base
-from wcac_jax.envs.wrappers import EpisodeWrapper
 
 SIZES = {"ant": (3, 105, 8), "ant-2obj": (2, 105, 8), "humanoid": (2, 348, 17)}
 

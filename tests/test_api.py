@@ -18,7 +18,7 @@ from wcac_jax import (
     utopia,
 )
 from wcac_jax.algos import contract, practical
-from wcac_jax.config import Config, field, frozen_config
+from wcac_jax.core.config import Config, field, frozen_config
 from wcac_jax.sweep import SweepConfig, SweepError, load_sweep, run_sweep
 
 # a practical update small enough to compile in seconds on the bandit

@@ -14,8 +14,8 @@ import jax
 import pytest
 from sweep_args import TINY_BANDIT
 
-from wcac_jax import cli, envs, scalarize, sweep
-from wcac_jax.sweep import SweepConfig, default_sweep
+from wcac_jax import envs, scalarize, sweep
+from wcac_jax.sweep import SweepConfig, cli, default_sweep
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 TINY = [*TINY_BANDIT, "--quiet"]

@@ -11,9 +11,10 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from wcac_jax import algos, cli, envs, pareto, runtime, scalarize, sweep, utopia
+from wcac_jax import algos, envs, pareto, runtime, scalarize, sweep, utopia
 from wcac_jax.algos import conditioned, practical
 from wcac_jax.envs import concave_bandit
+from wcac_jax.sweep import cli
 
 
 def test_registered_as_its_own_kind():
@@ -293,7 +294,7 @@ def test_experiment_resume_keeps_the_recorded_runs(tmp_path, monkeypatch):
     (out / "conditioned" / "seed0" / "machine.json").write_text('{"process_s": 1.0}')
     (work / "conditioned" / "seed0" / "front.json").write_bytes(front)
     before = {str(p): p.read_bytes() for p in out.rglob("*") if p.is_file()}
-    monkeypatch.setattr("wcac_jax.cli.main", lambda *a: pytest.fail("trained"))
+    monkeypatch.setattr("wcac_jax.sweep.cli.main", lambda *a: pytest.fail("trained"))
     exp.main(
         ["--resume", "--out", str(out), "--work", str(work), "--seeds", "0"]
         + ["--arms", "conditioned", "--cost-prefs", "--reuse-9x1m", str(tmp_path / "none")]

@@ -1,4 +1,4 @@
-"""A sweep over several processes (`--coordinator`, `wcac_jax.distributed`) on 127.0.0.1:
+"""A sweep over several processes (`--coordinator`, `wcac_jax.sweep.distributed`) on 127.0.0.1:
 two processes with one CPU device each give the same front, bit for bit, as one process
 with two host devices, also across a stop and `--resume`; flags that don't fit and an
 unreachable coordinator exit with status 2, one line, nothing written."""
@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from sweep_args import TINY_BANDIT
 
-from wcac_jax import cli
+from wcac_jax.sweep import cli
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
@@ -120,7 +120,8 @@ def test_two_processes_resume_after_a_stop(one_process, tmp_path):
 # place each process's model on process 0's device, which process 1 cannot read
 _MJX_ENV = """
 import sys, jax
-from wcac_jax import cli, distributed, envs
+from wcac_jax import envs
+from wcac_jax.sweep import cli, distributed
 a = cli.build_parser().parse_args(sys.argv[1:])
 distributed.initialize(distributed.from_environment(
     a.coordinator, a.num_processes, a.process_id, a.coordinator_timeout))
@@ -196,7 +197,7 @@ def test_flags_that_dont_fit_exit_2(flags, message, tmp_path, capsys, monkeypatc
 
 
 def test_missing_flags_come_from_the_launchers_environment():
-    from wcac_jax.distributed import from_environment
+    from wcac_jax.sweep.distributed import from_environment
 
     slurm = {"SLURM_NTASKS": "4", "SLURM_PROCID": "3"}
     c = from_environment("10.0.0.1:1234", None, None, 30.0, environ=slurm)

@@ -20,9 +20,9 @@ from gym_states import gymnasium_states
 
 from wcac_jax import envs, sweep
 from wcac_jax.algos import PaperConfig
+from wcac_jax.core.episodes import EpisodeWrapper
 from wcac_jax.envs.engines.mujoco import MujocoEngine, f32_to_f64_bits
 from wcac_jax.envs.walker2d import load_mj_model
-from wcac_jax.envs.wrappers import EpisodeWrapper
 
 # ----------------------------------------------------------------- float64 bit patterns
 

@@ -9,8 +9,8 @@ import pytest
 from brax.envs.base import Env, State
 
 from wcac_jax import envs, scalarize
+from wcac_jax.core.episodes import EpisodeWrapper
 from wcac_jax.envs import concave_bandit as cb
-from wcac_jax.envs.wrappers import EpisodeWrapper
 
 
 def test_registry_errors_name_the_valid_choices():

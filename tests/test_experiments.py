@@ -19,7 +19,8 @@ import walker2d_ablation  # noqa: E402
 import walker2d_common  # noqa: E402
 import walker2d_front  # noqa: E402
 
-from wcac_jax import cli, plot  # noqa: E402
+from wcac_jax import plot  # noqa: E402
+from wcac_jax.sweep import cli  # noqa: E402
 
 TINY_WALKER = [
     *("--steps-per-pref", "160", "--envs-per-pref", "4", "--eval-episodes", "1"),

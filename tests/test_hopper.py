@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from wcac_jax import envs
+from wcac_jax.core.episodes import EpisodeWrapper
 from wcac_jax.envs import base
-from wcac_jax.envs.wrappers import EpisodeWrapper
 
 
 @pytest.mark.parametrize("name", ["hopper", "hopper-2obj"])

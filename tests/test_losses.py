@@ -1,4 +1,4 @@
-"""The generic on-policy pieces (`wcac_jax.losses`) against hand-computed values: GAE at
+"""The generic on-policy pieces (`wcac_jax.core.losses`) against hand-computed values: GAE at
 falls and time limits, the clipped surrogate and its gradient, the minibatch loss, and
 epochs that visit every sample once each."""
 
@@ -10,7 +10,8 @@ import jax.numpy as jnp
 import numpy as np
 import optax
 
-from wcac_jax import losses, networks
+from wcac_jax import networks
+from wcac_jax.core import losses
 
 
 def test_gae_terminal_and_truncation_by_hand():

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from wcac_jax import networks
-from wcac_jax.networks import NetParams
+from wcac_jax.core.networks import NetParams
 
 
 def test_paper_network_forward_by_hand():

@@ -15,9 +15,9 @@ from brax.envs.base import Env, State
 
 from wcac_jax import envs
 from wcac_jax.algos import PaperConfig, make_evaluate, make_train, make_trainer
+from wcac_jax.core.runtime import assemble, env_steps, finished_episode_return, rollout
+from wcac_jax.core.types import EpisodeStats
 from wcac_jax.envs import concave_bandit as cb
-from wcac_jax.runtime import assemble, env_steps, finished_episode_return, rollout
-from wcac_jax.types import EpisodeStats
 
 # None of these preferences has its optimum at the policies' start (theta ~ pi/4, the MLP
 # policy head starts near action 0): [0.35, 0.65]'s weighted-Chebyshev optimum is 1.118.

@@ -12,7 +12,8 @@ import pytest  # noqa: E402
 from nbclient import NotebookClient  # noqa: E402
 from sweep_args import TINY_BANDIT  # noqa: E402
 
-from wcac_jax import cli, plot, sweep  # noqa: E402
+from wcac_jax import plot, sweep  # noqa: E402
+from wcac_jax.sweep import cli
 
 TINY = [*TINY_BANDIT, "--n-prefs", "5"]
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))

@@ -11,10 +11,11 @@ import numpy as np
 import pytest
 from brax.training.acme import running_statistics, specs
 
-from wcac_jax import algos, envs, losses, utopia
+from wcac_jax import algos, envs, utopia
 from wcac_jax.algos import practical
+from wcac_jax.core import losses
+from wcac_jax.core.runtime import TRACED_DIRECTIONS
 from wcac_jax.envs import concave_bandit as cb
-from wcac_jax.runtime import TRACED_DIRECTIONS
 
 
 def test_return_normaliser_by_hand():

@@ -12,8 +12,9 @@ import numpy as np
 import pytest
 from nbclient import NotebookClient
 
-from wcac_jax import algos, cli, envs, presets, sweep, utopia
+from wcac_jax import algos, envs, presets, sweep, utopia
 from wcac_jax.algos import PaperConfig, PracticalConfig
+from wcac_jax.sweep import cli
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 

@@ -7,7 +7,8 @@ import json
 import numpy as np
 import pytest
 
-from wcac_jax import cli, protocols
+from wcac_jax import protocols
+from wcac_jax.sweep import cli
 from wcac_jax.sweep.protocol import protocol_sweep
 
 

@@ -7,7 +7,7 @@ import numpy as np
 from test_recsys_offline import tiny_protocol
 
 from wcac_jax import critic as critic_lib
-from wcac_jax.networks import make_network
+from wcac_jax.core.networks import make_network
 from wcac_jax.recsys import alg1, offline
 
 

@@ -11,8 +11,8 @@ import pytest
 
 from wcac_jax import critic as critic_lib
 from wcac_jax import scalarize
-from wcac_jax.actor import min_norm_weights
-from wcac_jax.networks import NetParams
+from wcac_jax.core.actor import min_norm_weights
+from wcac_jax.core.networks import NetParams
 from wcac_jax.recsys import offline
 from wcac_jax.recsys.data import Protocol
 

@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 from brax.envs.base import State
 
-from wcac_jax import envs, render
+from wcac_jax import envs
+from wcac_jax.evaluate import render
 
 
 class _Data(NamedTuple):

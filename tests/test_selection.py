@@ -1,4 +1,4 @@
-"""`wcac_jax.selection`: the weighted-Chebyshev choice among each preference's last
+"""`wcac_jax.sweep.selection`: the weighted-Chebyshev choice among each preference's last
 policies, by hand; and in a tiny bandit sweep: training untouched, the choice the
 recorded regrets give, chunking and resume invariant, `load_sweep` returning it."""
 
@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 from sweep_args import TINY_BANDIT
 
-from wcac_jax import cli, scalarize, selection, sweep
+from wcac_jax import scalarize, sweep
+from wcac_jax.sweep import cli, selection
 
 
 def test_candidate_iterations():

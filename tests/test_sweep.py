@@ -16,7 +16,8 @@ import numpy as np
 import pytest
 from sweep_args import TINY_BANDIT
 
-from wcac_jax import cli, pareto, sweep
+from wcac_jax import pareto, sweep
+from wcac_jax.sweep import cli
 
 TINY = [*TINY_BANDIT, "--quiet"]
 # slow enough (about a second per chunk) that a SIGKILL lands between chunks
@@ -420,7 +421,8 @@ def test_overwrite_replaces_the_results_only_once_finished(tiny_run, tmp_path, c
 def test_front_json_is_written_last(tiny_run, tmp_path, monkeypatch):
     """`front.json` marks a sweep finished (`--resume` then has nothing to do), so a
     write interrupted before it leaves none, and `--resume` writes them all."""
-    from wcac_jax import outputs, plot
+    from wcac_jax import plot
+    from wcac_jax.sweep import outputs
 
     front, curves = _load(tiny_run)
     out = tmp_path / "out"
@@ -495,8 +497,8 @@ def test_chunk_padding_runs_no_iterations():
     import jax
     import jax.numpy as jnp
 
-    from wcac_jax.runtime import Trainer
-    from wcac_jax.utopia import PREF_AXIS
+    from wcac_jax.core.runtime import Trainer
+    from wcac_jax.core.utopia import PREF_AXIS
 
     class State(NamedTuple):
         iteration: jax.Array
@@ -611,9 +613,9 @@ def test_console_script_is_the_command_line(tmp_path):
 
 
 def test_the_sweep_package_does_not_import_the_command_line():
-    """`wcac_jax.cli` imports `wcac_jax.sweep`, never the reverse: `python -m
+    """`wcac_jax.sweep.cli` imports `wcac_jax.sweep`, never the reverse: `python -m
     wcac_jax.sweep` runs `sweep/__main__.py` once, and the package is not executed twice."""
-    code = "import sys, wcac_jax.sweep; assert 'wcac_jax.cli' not in sys.modules, sys.modules"
+    code = "import sys, wcac_jax.sweep; assert 'wcac_jax.sweep.cli' not in sys.modules, sys.modules"
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
     proc = _cli(["--help"])

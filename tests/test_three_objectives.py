@@ -7,7 +7,8 @@ two minutes on the 2-core CPU; it is checked by hand, not here)."""
 import numpy as np
 import pytest
 
-from wcac_jax import cli, pareto, presets
+from wcac_jax import pareto, presets
+from wcac_jax.sweep import cli
 
 
 def _config(*args):

@@ -1,4 +1,4 @@
-"""The sweep's own utopia estimate (`wcac_jax.utopia`) under vmap, by hand."""
+"""The sweep's own utopia estimate (`wcac_jax.core.utopia`) under vmap, by hand."""
 
 import os
 import subprocess

@@ -11,7 +11,7 @@ import pytest
 from gym_states import gymnasium_states
 
 from wcac_jax import envs
-from wcac_jax.envs.wrappers import EpisodeWrapper
+from wcac_jax.core.episodes import EpisodeWrapper
 
 pytestmark = pytest.mark.slow
 

@@ -16,7 +16,10 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import NamedTuple
 
-from wcac_jax import networks, runtime
+# the method's shared pieces first: they import MJX (which Brax's modules import) without
+# its optional-backend notices
+from wcac_jax.core import networks, runtime  # isort: skip
+
 from wcac_jax.algos import conditioned, contract, paper, practical
 from wcac_jax.algos.conditioned import ConditionedConfig
 from wcac_jax.algos.contract import UpdateConfig
@@ -122,7 +125,7 @@ def make_train(config, env, network_factory: networks.NetworkFactory | None = No
     `key` (a PRNG key) and `pref` (`[m]`) are traced, so a sweep is
     `jax.jit(jax.vmap(train))(keys [P], prefs [P, m])`; `metrics` leaves are `[T, ...]`
     (`[P, T, ...]` under the vmap). With the practical update's estimated utopia point
-    (`wcac_jax.utopia`), a plain `jax.vmap` lets each preference estimate its own, as a
+    (`wcac_jax.core.utopia`), a plain `jax.vmap` lets each preference estimate its own, as a
     sweep of that preference alone would; `jax.vmap(train, axis_name=utopia.PREF_AXIS)`
     shares one across the batch, as `run_sweep` does.
 

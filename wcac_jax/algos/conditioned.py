@@ -15,7 +15,7 @@ none. Per iteration, as the practical update does for one preference
 3. for each transition, with `p` its episode's preference and `s0` its episode's start
    (`episode_start_obs`), `Jhat(p) = sigma * V(s0, p)` (discounted, in the objectives'
    units); the utopia point `z` is estimated from every `Jhat` in play (the best each
-   objective has reached, as `wcac_jax.utopia`, with the spread over the batch's
+   objective has reached, as `wcac_jax.core.utopia`, with the spread over the batch's
    preferences); the scalarization's weights `w(Jhat(p), p, z)` give the scalarized
    advantage `sum_i (w_i p_i + rho) sigma_i A_i` (`scalarized_advantage`): the practical
    update's formula for that environment's own preference;
@@ -37,11 +37,11 @@ import jax.numpy as jnp
 import optax
 from brax.envs.base import Env, State, Wrapper
 
-from wcac_jax import networks, runtime, scalarize, utopia
 from wcac_jax.algos import practical
 from wcac_jax.algos.practical import PracticalConfig, PracticalState
-from wcac_jax.config import field, frozen_config, one_of, positive, positive_int
-from wcac_jax.types import typed_key
+from wcac_jax.core import networks, runtime, scalarize, utopia
+from wcac_jax.core.config import field, frozen_config, one_of, positive, positive_int
+from wcac_jax.core.types import typed_key
 
 CONDITIONINGS = ("concat", "film")
 
@@ -149,7 +149,7 @@ def scalarized_advantage(
 
 
 def estimate_utopia(config: ConditionedConfig, state: utopia.UtopiaState, j_hat: chex.Array):
-    """`(state, z [m])` from the batch's `Jhat` `[..., m]`: `wcac_jax.utopia`'s rule with
+    """`(state, z [m])` from the batch's `Jhat` `[..., m]`: `wcac_jax.core.utopia`'s rule with
     the preferences in play (every transition's) in place of the sweep's."""
     flat = j_hat.reshape((-1, j_hat.shape[-1]))
     best = jnp.maximum(state.best, jnp.max(flat, axis=0))

@@ -22,7 +22,7 @@ from __future__ import annotations
 import dataclasses
 from typing import Protocol, runtime_checkable
 
-from wcac_jax.config import Config
+from wcac_jax.core.config import Config
 
 CONFIG_FIELDS = ("num_iterations", "scalarization", "mu", "gamma", "j_ub")
 # metric -> its shape per iteration ("m": one entry per objective, "": a scalar)

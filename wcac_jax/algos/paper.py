@@ -5,17 +5,17 @@ Per iteration, for one preference:
 1. critics restart (warm or cold, `critic.restart`);
 2. `K` critic steps: all `N` environments step once under the current policy (Markov
    sampling: they continue from where they were) and every critic takes a TD step with
-   projection, the critics' iterates averaged (`wcac_jax.critic`);
+   projection, the critics' iterates averaged (`wcac_jax.core.critic`);
 3. `L` rollout steps collect `M = N * L` transitions;
 4. TD-residual advantages under the averaged critics, `Jhat` from the start states'
    values, the scalarization's weights, the score-function direction `d` of the
-   smoothed weighted-Chebyshev scalarization (one backward pass, `wcac_jax.actor`) and
+   smoothed weighted-Chebyshev scalarization (one backward pass, `wcac_jax.core.actor`) and
    the actor's (normalised) optimizer step;
 5. the observation normaliser absorbs the iteration's observations.
 
 So each iteration costs `N * (K + L)` environment steps
 (`PaperConfig.env_steps_per_iteration`). The shared pieces (rollout, episode
-bookkeeping, observation normalisation, the `Trainer`) are `wcac_jax.runtime`'s.
+bookkeeping, observation normalisation, the `Trainer`) are `wcac_jax.core.runtime`'s.
 """
 
 from __future__ import annotations
@@ -28,9 +28,9 @@ import jax
 import jax.numpy as jnp
 import optax
 
-from wcac_jax import actor, critic, networks, runtime, scalarize
-from wcac_jax.actor import ACTOR_OPTIMIZERS
-from wcac_jax.config import (
+from wcac_jax.core import actor, critic, networks, runtime, scalarize
+from wcac_jax.core.actor import ACTOR_OPTIMIZERS
+from wcac_jax.core.config import (
     INF_AS_NONE,
     TUPLE_AS_LIST,
     Config,
@@ -44,7 +44,7 @@ from wcac_jax.config import (
     positive_int,
     positive_or_inf,
 )
-from wcac_jax.networks import NETWORK_KINDS
+from wcac_jax.core.networks import NETWORK_KINDS
 
 
 def _scalarization_names():

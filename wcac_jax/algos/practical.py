@@ -12,7 +12,7 @@ policy (`M = N * L` transitions), and then:
    (`losses.gae`): falls do not bootstrap, time-limit truncation bootstraps from the true next
    observation (`info["final_obs"]`), and the recursion stops at every episode end;
 3. `Jhat_i = sigma_i * mean_{s0} V_i(s0)` (discounted, in the objectives' own units), the
-   utopia point `z` (fixed, or estimated by the whole sweep, see `wcac_jax.utopia`), and
+   utopia point `z` (fixed, or estimated by the whole sweep, see `wcac_jax.core.utopia`), and
    the scalarization's weights `w` (`lambda` for `smooth_wc`) give the scalarized
    advantage `sum_i w_i p_i sigma_i A_i` — the advantage of the direction
    `-sum_i w_i p_i gradJ_i` of `actor.direction`, with each `A_i` back in its
@@ -23,7 +23,7 @@ policy (`M = N * L` transitions), and then:
    normalised) scalarized advantage, plus the critic's regression on its GAE targets.
 
 `_iteration` reads one iteration top to bottom; the generic PPO pieces are
-`wcac_jax.losses`'.
+`wcac_jax.core.losses`'.
 
 `make_trainer` returns the same `runtime.Trainer` as the paper's update (through
 `runtime.assemble`, which adds the shared `run` and `mean_action`), so sweeps,
@@ -42,8 +42,8 @@ import jax.numpy as jnp
 import optax
 from brax.training.acme import running_statistics, specs
 
-from wcac_jax import losses, networks, runtime, scalarize, utopia
-from wcac_jax.config import (
+from wcac_jax.core import losses, networks, runtime, scalarize, utopia
+from wcac_jax.core.config import (
     TUPLE_AS_LIST,
     Config,
     discount,
@@ -103,7 +103,7 @@ class PracticalConfig(Config):
     )
     utopia: str = field(
         "estimated",
-        "'fixed' (j_ub) or 'estimated' (by the sweep, wcac_jax.utopia)",
+        "'fixed' (j_ub) or 'estimated' (by the sweep, wcac_jax.core.utopia)",
         one_of(utopia.UTOPIA_MODES),
     )
     utopia_margin: float = field(0.1, "estimated utopia's margin (utopia.estimate)", non_negative)
@@ -170,7 +170,7 @@ class PracticalState:
       return_stats: running statistics of the per-objective discounted return (`[m]`;
         its std scales the rewards).
       discounted_return: `[N, m]` each environment's discounted return so far this episode.
-      utopia: the sweep's utopia estimate (`wcac_jax.utopia`).
+      utopia: the sweep's utopia estimate (`wcac_jax.core.utopia`).
     """
 
     critic: networks.NetParams

@@ -6,38 +6,25 @@ copy) whose `State.reward` is a vector with one entry per objective, and which d
 `objective_names`, `num_objectives`, `default_j_ub`, `default_hv_ref` (the hypervolume
 reference point: per objective the least return an episode can have), `episode_length`
 and a rendering hook (`base` says what each means). MuJoCo tasks build on
-`mujoco_base.MujocoEnv`. Training code wraps an environment with `EpisodeWrapper` and
-vmaps it; nothing here imports training code.
+`mujoco_base.MujocoEnv`. The method wraps an environment with `EpisodeWrapper` (its time
+limit and auto-reset, `wcac_jax.core.episodes`, re-exported here) and vmaps it. Tasks
+import nothing of the updates or the host side: of the method's modules only the episode
+wrapper, and `scalarize` for the tabular task's exact optimum.
 """
 
 from __future__ import annotations
 
-import contextlib
 import importlib
 import inspect
-import io
 from collections.abc import Callable
 
+# the episode wrapper first: it imports MJX (which Brax's modules import) without its
+# optional-backend notices
+from wcac_jax.core.episodes import EpisodeWrapper  # isort: skip
 
-def _import_mjx_quietly() -> None:
-    """Imports `mujoco.mjx` (which Brax imports) without its two lines "Failed to import
-    warp: No module named 'warp'" / "Failed to import mujoco_warp: ...": they say only
-    that the optional NVIDIA Warp backend (GPU-only, unused here) is not installed. Any
-    other output of the import, a different Warp failure included, is printed."""
-    captured = io.StringIO()
-    with contextlib.redirect_stdout(captured):
-        import mujoco.mjx  # noqa: F401
-    for line in captured.getvalue().splitlines():
-        if not (line.startswith("Failed to import") and line.endswith("No module named 'warp'")):
-            print(line)
+from brax.envs.base import State
 
-
-_import_mjx_quietly()
-
-from brax.envs.base import State  # noqa: E402
-
-from wcac_jax.envs.base import MOEnv  # noqa: E402
-from wcac_jax.envs.wrappers import EpisodeWrapper  # noqa: E402
+from wcac_jax.envs.base import MOEnv
 
 # name -> "module:attribute" (or a constructor, `register`); a task's module, and the model
 # it loads, is imported when the task is first made.

@@ -21,7 +21,7 @@ import numpy as np
 import optax
 from brax.envs.base import State
 
-from wcac_jax import scalarize
+from wcac_jax.core import scalarize
 from wcac_jax.envs.base import MOEnv
 
 

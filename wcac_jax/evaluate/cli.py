@@ -14,7 +14,7 @@ import os
 import sys
 import time
 
-from wcac_jax.outputs import json_bytes, library_versions, write_atomic
+from wcac_jax.sweep.outputs import json_bytes, library_versions, write_atomic
 
 INSTALL = (
     "mo-gymnasium is not installed; install it with: pip install 'wcac_jax[mo-gymnasium]' "

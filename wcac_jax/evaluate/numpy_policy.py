@@ -1,6 +1,6 @@
 """A trained policy's deterministic action in numpy: `NumpyPolicy` and `mean_action`.
 
-The same function as the project's `Trainer.mean_action` (`wcac_jax.runtime`), computed
+The same function as the project's `Trainer.mean_action` (`wcac_jax.core.runtime`), computed
 outside JAX from a checkpoint's parameters: the observation normalised by the running
 statistics (`(obs - mean) / std`, clipped to `+-obs_clip` where the update clips), the
 paper network's bias feature and unit-sphere projection where it has them, a conditioned

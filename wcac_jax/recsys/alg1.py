@@ -36,10 +36,10 @@ import numpy as np
 import optax
 from flax import struct
 
-from wcac_jax import actor as actor_lib
-from wcac_jax import critic as critic_lib
-from wcac_jax import scalarize
-from wcac_jax.networks import NetParams, make_network
+from wcac_jax.core import actor as actor_lib
+from wcac_jax.core import critic as critic_lib
+from wcac_jax.core import scalarize
+from wcac_jax.core.networks import NetParams, make_network
 from wcac_jax.recsys import ncis as ncis_lib
 from wcac_jax.recsys import offline
 from wcac_jax.recsys.data import Protocol

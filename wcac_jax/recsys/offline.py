@@ -9,7 +9,7 @@ combining the `m = 7` per-signal objectives (`METHODS`):
 - actor `mu_theta(s) in [0, C-1]`: the continuous candidate index, `(C-1) sigmoid(net(s))`
   (the benchmark's actors output a continuous index; evaluation wraps it in a Gaussian);
 - critics: one Q-network per signal, `Q_i(s, a)`, parameters stacked on an `[m]` axis
-  (`wcac_jax.critic.values` evaluates them), trained by TD on logged transitions,
+  (`wcac_jax.core.critic.values` evaluates them), trained by TD on logged transitions,
   `delta_i = Q_i(s, a) - r_i - gamma (1 - done) Q'_i(s', mu'(s'))` (`critic.td_error`)
   with Polyak target networks `Q'`, `mu'` and Adam. The critic sees the action as the
   6 candidate features linearly interpolated at the continuous index plus the index
@@ -24,7 +24,7 @@ combining the `m = 7` per-signal objectives (`METHODS`):
 - the same behaviour-cloning term for every method, `bc_weight * mean(((mu(s) - a) /
   (C-1))^2)` pulling the actor towards the logged actions (`OfflineConfig.bc_weight`;
   0 turns it off for all);
-- the actor's step: Adam (`wcac_jax.actor.make_optimizer("adam")`) on a direction `d`,
+- the actor's step: Adam (`wcac_jax.core.actor.make_optimizer("adam")`) on a direction `d`,
   at `actor_lr` for DNN actors and `linear_actor_lr` for linear ones (each class at the
   step size under which its mean action levels off within the budget); the first
   `critic_warmup` of the steps train the critics only.
@@ -67,10 +67,10 @@ import numpy as np
 import optax
 from flax import struct
 
-from wcac_jax import actor as actor_lib
-from wcac_jax import critic as critic_lib
-from wcac_jax import scalarize
-from wcac_jax.networks import NetParams, Network, make_network
+from wcac_jax.core import actor as actor_lib
+from wcac_jax.core import critic as critic_lib
+from wcac_jax.core import scalarize
+from wcac_jax.core.networks import NetParams, Network, make_network
 from wcac_jax.recsys.data import Protocol, for_test_rows
 
 M = 7

@@ -61,9 +61,9 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from wcac_jax.outputs import unwritable_dir
 from wcac_jax.recsys.cli import ArgumentParser
 from wcac_jax.recsys.kuairand import LAYOUTS
+from wcac_jax.sweep.outputs import unwritable_dir
 
 # The protocol subset's test means in the public KuaiRand-27K pipeline (its reference
 # means of the logged policy): click, like, follow, comment, forward, hate; watch time.

@@ -1,5 +1,5 @@
 """A whole Pareto front in one compiled program: `run_sweep` (`python -m wcac_jax.sweep`,
-or `wcac-sweep`, is its command line, `wcac_jax.cli`).
+or `wcac-sweep`, is its command line, `wcac_jax.sweep.cli`).
 
 All preferences (and their `N` environments each) train in ONE compiled program,
 `jit(vmap(chunk))` over the preference axis, with keys and preferences as traced
@@ -17,55 +17,76 @@ Devices: the preference axis is split over every device (a 1-D mesh whose axis i
 `utopia.DEVICE_AXIS`), and each device runs the vmapped program on its own preferences
 (`jax.shard_map`); a preference count that does not divide evenly is padded by repeating
 the last preference, and the padding is dropped from the results. Several processes
-(`wcac_jax.distributed`; `--coordinator` on the command line): the mesh spans every
+(`wcac_jax.sweep.distributed`; `--coordinator` on the command line): the mesh spans every
 process's devices, each process runs its shards, and only process 0 reads and writes
 `out`.
 
-Modules: `defaults` (`default_sweep`: the library's defaults resolved into a
-`SweepConfig`), `config` (`SweepConfig` and the checks of a sweep's input), `training` (the
-compiled programs, and the only imports of the training modules), `run` (`run_sweep`'s
-steps), `progress` (the bar and the log lines), `load` (`load_sweep`); the files a sweep
-writes are `wcac_jax.outputs` and `wcac_jax.checkpoint`, the choice among its last
-policies `wcac_jax.selection`.
+Modules: `cli` (the command line), `presets` (named configurations and each
+environment's default), `defaults` (`default_sweep`: the library's defaults resolved into
+a `SweepConfig`), `config` (`SweepConfig` and the checks of a sweep's input), `protocol`
+and `conditioned` (a sweep under a benchmark protocol; the preference-conditioned run),
+`training` (the compiled programs), `run` (`run_sweep`'s steps), `selection` (the choice
+among a preference's last policies), `progress` (the bar and the log lines),
+`distributed` (several processes), `outputs` and `checkpoint` (the files a sweep writes),
+`load` (`load_sweep`) and `plot` (figures from saved results).
+
+Every name loads on first use (PEP 562), so that the host's file helpers
+(`wcac_jax.sweep.outputs`) load without the training modules.
 """
 
-from wcac_jax.outputs import staging_dir
-from wcac_jax.presets import PAPER_PREFS
-from wcac_jax.sweep.conditioned import run_conditioned
-from wcac_jax.sweep.config import (
-    MAX_ITERATIONS,
-    PAPER_STEPS_PER_PREF,
-    SweepConfig,
-    SweepError,
-    check_output_dir,
-    default_hv_ref,
-    make_env,
-    read_config,
-    validate_prefs,
-)
-from wcac_jax.sweep.defaults import default_sweep
-from wcac_jax.sweep.load import LoadedSweep, load_sweep
-from wcac_jax.sweep.run import TrainingDiverged, check_pref_count, run_sweep
-from wcac_jax.sweep.training import make_chunk
+import importlib
 
-__all__ = [
-    "MAX_ITERATIONS",
-    "PAPER_PREFS",
-    "PAPER_STEPS_PER_PREF",
-    "LoadedSweep",
-    "SweepConfig",
-    "SweepError",
-    "TrainingDiverged",
-    "check_output_dir",
-    "check_pref_count",
-    "default_hv_ref",
-    "default_sweep",
-    "load_sweep",
-    "make_chunk",
-    "make_env",
-    "read_config",
-    "run_conditioned",
-    "run_sweep",
-    "staging_dir",
-    "validate_prefs",
-]
+# name -> the module that defines it
+_NAMES = {
+    "MAX_ITERATIONS": "config",
+    "PAPER_STEPS_PER_PREF": "config",
+    "SweepConfig": "config",
+    "SweepError": "config",
+    "check_output_dir": "config",
+    "default_hv_ref": "config",
+    "make_env": "config",
+    "read_config": "config",
+    "validate_prefs": "config",
+    "PAPER_PREFS": "presets",
+    "run_conditioned": "conditioned",
+    "default_sweep": "defaults",
+    "LoadedSweep": "load",
+    "load_sweep": "load",
+    "TrainingDiverged": "run",
+    "check_pref_count": "run",
+    "run_sweep": "run",
+    "make_chunk": "training",
+    "staging_dir": "outputs",
+}
+_MODULES = (
+    "checkpoint",
+    "cli",
+    "conditioned",
+    "config",
+    "defaults",
+    "distributed",
+    "load",
+    "outputs",
+    "plot",
+    "presets",
+    "progress",
+    "protocol",
+    "run",
+    "selection",
+    "training",
+)
+
+
+def __getattr__(name: str):
+    if name in _MODULES:
+        return importlib.import_module(f"{__name__}.{name}")
+    if name in _NAMES:
+        return getattr(importlib.import_module(f"{__name__}.{_NAMES[name]}"), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted({*globals(), *_NAMES, *_MODULES})
+
+
+__all__ = sorted(_NAMES)

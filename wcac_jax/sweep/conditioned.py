@@ -16,7 +16,7 @@ apart) are kept, and each preference reports the one `choose_policies` picks for
 episodes of their own, evaluated afresh on the reported episodes
 (`front.json["selection"]` records the choice; the candidates' evaluation counts in the
 evaluation's env steps): the network's own choice among its recent selves, as
-`wcac_jax.selection` makes a sweep's.
+`wcac_jax.sweep.selection` makes a sweep's.
 """
 
 from __future__ import annotations
@@ -31,11 +31,13 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from wcac_jax import algos, outputs, protocols, runtime, selection
+from wcac_jax import algos, protocols
 from wcac_jax.algos import conditioned
-from wcac_jax.outputs import summarize, write_outputs
+from wcac_jax.core import runtime
+from wcac_jax.sweep import outputs, selection
 from wcac_jax.sweep.config import SweepConfig, SweepError, default_hv_ref, make_env, validate_prefs
 from wcac_jax.sweep.load import LoadedSweep, load_sweep
+from wcac_jax.sweep.outputs import summarize, write_outputs
 from wcac_jax.sweep.run import run_sweep
 
 
@@ -97,7 +99,7 @@ def measured_returns(config: SweepConfig) -> str:
 
 def choose_policies(config: SweepConfig, run: LoadedSweep, prefs, gamma: float) -> tuple:
     """Each preference's policy chosen among the network's last `config.select_last`
-    policies (`run.candidates`), as `wcac_jax.selection` chooses a sweep's: every
+    policies (`run.candidates`), as `wcac_jax.sweep.selection` chooses a sweep's: every
     candidate evaluated at every preference on `config.eval_episodes` episodes of their
     own (keys distinct from the reported evaluation's), and the candidate of least
     weighted-Chebyshev regret (the run's criterion, `selection.criterion`) on the returns

@@ -11,9 +11,10 @@ from dataclasses import dataclass, field
 import jax
 import numpy as np
 
-from wcac_jax import envs, protocols, selection
+from wcac_jax import envs, protocols
 from wcac_jax.algos import PaperConfig, UpdateConfig, from_dict, to_dict
-from wcac_jax.outputs import json_bytes, unwritable_dir
+from wcac_jax.sweep import selection
+from wcac_jax.sweep.outputs import json_bytes, unwritable_dir
 
 PAPER_STEPS_PER_PREF = 1_000_000
 MAX_ITERATIONS = 2**31 - 1  # `UpdateState.iteration` is int32
@@ -43,7 +44,7 @@ class SweepConfig:
         the same config, device count included, and any chunking; across device counts
         they differ by rounding (XLA compiles different per-device batch shapes).
       select_last: each preference reports the best of its last `select_last` policies
-        (`wcac_jax.selection`; 1: the final policy, no choice).
+        (`wcac_jax.sweep.selection`; 1: the final policy, no choice).
       select_every: environment steps between those candidates (rounded up to whole
         iterations; needed when `select_last > 1`).
       protocol: the benchmark protocol the front is scored under besides the project's
@@ -113,7 +114,7 @@ class SweepConfig:
 
     @property
     def candidate_iterations(self) -> tuple[int, ...]:
-        """The iterations whose policies `wcac_jax.selection` chooses among."""
+        """The iterations whose policies `wcac_jax.sweep.selection` chooses among."""
         every = math.ceil(self.select_every / self.train.env_steps_per_iteration)
         return selection.candidate_iterations(self.num_iterations, self.select_last, every)
 

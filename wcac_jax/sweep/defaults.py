@@ -9,7 +9,7 @@ ones, or the paper's nine under the paper's preset, or `n_prefs` evenly spread (
 smallest full lattice with at least that many for three objectives and more); the
 budget is the environment's (the whole training's for the conditioned update), rounded
 up to whole iterations; each preference reports the default's choice among its last
-policies when the budget leaves room for them. The command line (`wcac_jax.cli`) is a
+policies when the budget leaves room for them. The command line (`wcac_jax.sweep.cli`) is a
 shell over this function, so `run_sweep(default_sweep("walker2d", n_prefs=9))` trains
 exactly what `python -m wcac_jax.sweep --n-prefs 9` trains.
 
@@ -23,7 +23,9 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable
 
-from wcac_jax import algos, envs, pareto, presets, runtime
+from wcac_jax import algos, envs, pareto
+from wcac_jax.core import runtime
+from wcac_jax.sweep import presets
 from wcac_jax.sweep.config import SweepConfig, SweepError, make_env, validate_prefs
 from wcac_jax.sweep.run import check_pref_count
 

@@ -8,11 +8,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from wcac_jax import checkpoint, selection
 from wcac_jax.algos import ConditionedConfig, conditioned, make_evaluate, make_trainer
-from wcac_jax.runtime import Trainer, UpdateState, with_env_steps
+from wcac_jax.core.runtime import Trainer, UpdateState, with_env_steps
+from wcac_jax.core.utopia import PREF_AXIS
+from wcac_jax.sweep import checkpoint, selection
 from wcac_jax.sweep.config import SweepConfig, SweepError, make_env, read_config
-from wcac_jax.utopia import PREF_AXIS
 
 
 class LoadedSweep(NamedTuple):
@@ -27,7 +27,7 @@ class LoadedSweep(NamedTuple):
       metrics: per-iteration metrics `[P, T, ...]` (zeros past `state.iteration`), with
         `train/env_steps` (int64) counted on the host from `train/iteration`.
       chosen: with `config.select_last > 1` and the sweep finished, each preference's
-        reported policy (`wcac_jax.selection`, leaves `[P, ...]`), the one `front.json`
+        reported policy (`wcac_jax.sweep.selection`, leaves `[P, ...]`), the one `front.json`
         evaluated; else `None` (the reported policy is `state`'s).
       candidates: with `config.select_last > 1` and the sweep finished, every candidate
         policy the choice was made among (leaves `[K, P, ...]`, at

@@ -18,7 +18,7 @@ import sys
 
 import numpy as np
 
-from wcac_jax import distributed
+from wcac_jax.sweep import distributed
 
 UPDATE_SECONDS = 2.0  # the training between two moves of the bar
 

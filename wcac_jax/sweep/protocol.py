@@ -8,7 +8,8 @@ the protocol's preferences with its episodes, episode length and discount — an
 
 from __future__ import annotations
 
-from wcac_jax import algos, envs, presets, protocols
+from wcac_jax import algos, envs, protocols
+from wcac_jax.sweep import presets
 from wcac_jax.sweep.config import SweepConfig, SweepError
 
 

@@ -25,17 +25,11 @@ import jax.numpy as jnp
 import numpy as np
 from jax.sharding import PartitionSpec as P
 
-from wcac_jax import algos, checkpoint, distributed, selection
+from wcac_jax import algos
 from wcac_jax.algos import UpdateConfig, contract
-from wcac_jax.outputs import (
-    json_bytes,
-    replace_dir,
-    staging_dir,
-    summarize,
-    write_atomic,
-    write_outputs,
-)
-from wcac_jax.runtime import TRACED_DIRECTIONS, resolve_j_ub, with_env_steps
+from wcac_jax.core.runtime import TRACED_DIRECTIONS, resolve_j_ub, with_env_steps
+from wcac_jax.core.utopia import DEVICE_AXIS
+from wcac_jax.sweep import checkpoint, distributed, selection
 from wcac_jax.sweep.config import (
     SweepConfig,
     SweepError,
@@ -45,9 +39,16 @@ from wcac_jax.sweep.config import (
     read_json,
     validate_prefs,
 )
+from wcac_jax.sweep.outputs import (
+    json_bytes,
+    replace_dir,
+    staging_dir,
+    summarize,
+    write_atomic,
+    write_outputs,
+)
 from wcac_jax.sweep.progress import Pace, Progress, note
 from wcac_jax.sweep.training import Programs, build_programs, state_bytes
-from wcac_jax.utopia import DEVICE_AXIS
 
 
 class TrainingDiverged(RuntimeError):
@@ -292,7 +293,7 @@ class _Run:
 
     state: Any  # `UpdateState`, global, `[P', ...]`
     metrics: dict  # per-iteration metrics on the host, `[P, T, ...]`
-    pool: selection.Pool | None  # the policies `wcac_jax.selection` chooses among
+    pool: selection.Pool | None  # the policies `wcac_jax.sweep.selection` chooses among
     manager: Any  # orbax's checkpoint manager: process 0 of a sweep with `out`
     out: str | None
     done: int  # iterations done (every preference is at the same one)

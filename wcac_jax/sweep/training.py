@@ -2,7 +2,7 @@
 `build_programs`, its init/chunk/evaluate programs laid out over the devices.
 
 The updates themselves come from `wcac_jax.algos` (by configuration) and what they share
-from `wcac_jax.runtime`.
+from `wcac_jax.core.runtime`.
 """
 
 from __future__ import annotations
@@ -15,8 +15,8 @@ import jax.numpy as jnp
 from jax.sharding import PartitionSpec as P
 
 from wcac_jax.algos import UpdateConfig, make_evaluate, make_trainer
-from wcac_jax.runtime import Trainer
-from wcac_jax.utopia import DEVICE_AXIS, PREF_AXIS
+from wcac_jax.core.runtime import Trainer
+from wcac_jax.core.utopia import DEVICE_AXIS, PREF_AXIS
 
 
 def make_chunk(trainer: Trainer, chunk_len: int):
@@ -25,7 +25,7 @@ def make_chunk(trainer: Trainer, chunk_len: int):
     into `TRACED_DIRECTIONS`), to be called under `jax.vmap(..., axis_name=PREF_AXIS)`.
 
     Iterations at or past `stop` (a traced int32, the same for every preference: the
-    sweep's last iteration, or the next one whose policy `wcac_jax.selection` keeps) leave
+    sweep's last iteration, or the next one whose policy `wcac_jax.sweep.selection` keeps) leave
     the state as it is and give zero metrics, and cost nothing: every preference is at
     the same iteration, so the predicate is reduced over the preference axis to ONE
     scalar and `cond` runs one branch. (A per-preference predicate would be batched, and
@@ -87,7 +87,7 @@ def build_programs(
     runs the vmapped program on its own preferences (`shard_map`), so host callbacks
     (MuJoCo's C engine) step each device's environments where they are, in every
     process. The preference axis is named so that a trainer may share values across it
-    (the practical update's estimated utopia point, `wcac_jax.utopia`, which spans the
+    (the practical update's estimated utopia point, `wcac_jax.core.utopia`, which spans the
     device axis too). `network_factory`: the update's networks (`make_trainer`).
     """
     trainer = make_trainer(train, env, network_factory)

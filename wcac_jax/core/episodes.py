@@ -25,15 +25,38 @@ every step and selected where `done`: on Walker2d (MJX) that is one `mjx.forward
 step next to the step's four physics substeps. Measured (2-core CPU, batch 16, random
 actions, CPU time, best of 8): 4,194 env-steps/s against 4,620 when replaying the first
 start state, about 9 % (the medians, 4,072 and 3,873, are within the machine's noise).
+
+It is the training's view of an environment (`runtime.vectorize` wraps every task with
+it), so it lives with the method; `wcac_jax.envs` re-exports it. Being the first of the
+method's modules to import Brax, it imports MJX (which Brax's modules import) quietly.
 """
 
 from __future__ import annotations
 
-import jax
-import jax.numpy as jnp
-from brax.envs.base import Env, State, Wrapper
+import contextlib
+import io
 
-from wcac_jax.types import typed_key
+
+def _import_mjx_quietly() -> None:
+    """Imports `mujoco.mjx` (which Brax imports) without its two lines "Failed to import
+    warp: No module named 'warp'" / "Failed to import mujoco_warp: ...": they say only
+    that the optional NVIDIA Warp backend (GPU-only, unused here) is not installed. Any
+    other output of the import, a different Warp failure included, is printed."""
+    captured = io.StringIO()
+    with contextlib.redirect_stdout(captured):
+        import mujoco.mjx  # noqa: F401
+    for line in captured.getvalue().splitlines():
+        if not (line.startswith("Failed to import") and line.endswith("No module named 'warp'")):
+            print(line)
+
+
+_import_mjx_quietly()
+
+import jax  # noqa: E402
+import jax.numpy as jnp  # noqa: E402
+from brax.envs.base import Env, State, Wrapper  # noqa: E402
+
+from wcac_jax.core.types import typed_key  # noqa: E402
 
 
 class EpisodeWrapper(Wrapper):

@@ -26,7 +26,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from wcac_jax.types import typed_key
+from wcac_jax.core.types import typed_key
 
 
 def make_rollout(trainer, env, steps: int) -> Callable:

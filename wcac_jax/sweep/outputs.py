@@ -139,7 +139,7 @@ def summarize(
         `parts`, `timed_from_iteration` (the iteration they start from: 0 unless a part's
         clocks were lost).
       selection: with a choice among each preference's last policies, what
-        `wcac_jax.selection` records of it (its `chosen_iteration` and `utopia`); each
+        `wcac_jax.sweep.selection` records of it (its `chosen_iteration` and `utopia`); each
         row's training metrics are then those of its chosen iteration.
     """
     n = prefs.shape[0]
@@ -244,7 +244,7 @@ def write_outputs(out, front, metrics, prefs) -> None:
     npz = io.BytesIO()
     np.savez(npz, prefs=prefs, objective_names=np.array(names), **metrics)
     write_atomic(os.path.join(out, "curves.npz"), npz.getvalue())
-    from wcac_jax import plot
+    from wcac_jax.sweep import plot
 
     fig = plot.plot_front(front)
     png = io.BytesIO()

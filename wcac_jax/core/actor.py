@@ -24,7 +24,7 @@ import jax
 import jax.numpy as jnp
 import optax
 
-from wcac_jax.networks import NetParams
+from wcac_jax.core.networks import NetParams
 
 # `(params, obs [M, obs], action [M, ...]) -> log pi(a | s) [M]`
 LogProb = Callable[[NetParams, chex.Array, chex.Array], chex.Array]

@@ -31,7 +31,7 @@ import jax
 import jax.numpy as jnp
 from flax import struct
 
-from wcac_jax.networks import NetParams, project_to_ball
+from wcac_jax.core.networks import NetParams, project_to_ball
 
 Apply = Callable[[NetParams, chex.Array], chex.Array]
 

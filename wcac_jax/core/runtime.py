@@ -18,9 +18,9 @@ unclipped sample.
 
 from __future__ import annotations
 
-# the environments first: they import MJX (which Brax's modules import) without its
+# the episode wrapper first: it imports MJX (which Brax's modules import) without its
 # optional-backend notices
-from wcac_jax.envs.wrappers import EpisodeWrapper  # isort: skip
+from wcac_jax.core.episodes import EpisodeWrapper  # isort: skip
 
 from collections.abc import Callable
 from typing import Any, NamedTuple, Protocol
@@ -34,8 +34,8 @@ from brax.envs.base import State
 from brax.training.acme import running_statistics, specs
 from flax import struct
 
-from wcac_jax import networks, scalarize
-from wcac_jax.types import EpisodeStats, Transition, typed_key
+from wcac_jax.core import networks, scalarize
+from wcac_jax.core.types import EpisodeStats, Transition, typed_key
 
 # scalarizations selectable by a traced index (the `direction` argument of `step`/`run`):
 # every registered one, in registration order (`scalarize.register`), read when a program
@@ -73,7 +73,7 @@ def update_state(order: tuple[str, ...]):
     `UpdateState`'s fields too, all in `order`.
 
     The order is the pytree's leaf order, which a checkpoint stores by position
-    (`wcac_jax.checkpoint`): it stays what it was when runs were saved, so that they
+    (`wcac_jax.sweep.checkpoint`): it stays what it was when runs were saved, so that they
     restore and resume.
 
     Raises:

@@ -24,19 +24,21 @@ import sys
 import textwrap
 import time
 
-from wcac_jax import algos, distributed, envs, pareto, presets, protocols
-from wcac_jax.outputs import json_bytes
+from wcac_jax import algos, envs, pareto, protocols
 from wcac_jax.sweep import (
     SweepConfig,
     SweepError,
     TrainingDiverged,
     default_sweep,
+    distributed,
+    presets,
     read_config,
     run_conditioned,
     run_sweep,
 )
 from wcac_jax.sweep import defaults as resolution
 from wcac_jax.sweep.conditioned import training_sweep
+from wcac_jax.sweep.outputs import json_bytes
 from wcac_jax.sweep.protocol import budget_note as protocol_budget_note
 from wcac_jax.sweep.protocol import protocol_sweep
 
@@ -513,7 +515,7 @@ def _config_changes(config) -> str:
 
 
 def add_selection_flags(parser, default: tuple[int, int] | None = None) -> None:
-    """`--select-last K --select-every STEPS` (`wcac_jax.selection`), on `parser`; the
+    """`--select-last K --select-every STEPS` (`wcac_jax.sweep.selection`), on `parser`; the
     help names `default` = `(select_last, select_every)` when given."""
     shown = ""
     if default is not None:

@@ -5,7 +5,7 @@ swept — the preference vector and the PRNG key — is a traced argument of `tr
 config. Each update declares its configuration as a `Config` subclass under `@frozen_config`,
 one `field(default, doc, check)` per hyperparameter; from those declarations come the
 validation (`__post_init__`), `replace`, `to_dict` / `from_dict` and the command line's
-flags (`wcac_jax.cli`). Derived sizes are properties. Invalid values raise `ValueError`
+flags (`wcac_jax.sweep.cli`). Derived sizes are properties. Invalid values raise `ValueError`
 naming the field, the bad value and what is allowed.
 """
 

@@ -87,7 +87,7 @@ def estimate(
 def point(best: chex.Array, lo: chex.Array, *, margin: float, min_spread: float) -> chex.Array:
     """`z = best + margin * max(best - lo, min_spread)` (`[m]`): the utopia point above the
     best values `best`, given the least ones `lo` (the rule `estimate` applies; also
-    `wcac_jax.selection`'s)."""
+    `wcac_jax.sweep.selection`'s)."""
     return best + margin * jnp.maximum(best - lo, min_spread)
 
 

@@ -18,7 +18,7 @@ weighted-Chebyshev regret
 (the limit of `smooth_wc` as `mu -> 0`), for `linear` its own score
 `scalarize.linear(J, p) = -sum_i p_i J_i`, for any other registered scalarization its
 `value(J, p, z, mu)`. `z` is one utopia point for the whole sweep, estimated from every
-candidate of every preference by `wcac_jax.utopia`'s rule (`utopia.point`): `z_i = max
+candidate of every preference by `wcac_jax.core.utopia`'s rule (`utopia.point`): `z_i = max
 J_i + margin * max(spread_i, min_spread)` with `spread_i = max J_i - min J_i` over all
 candidates and preferences, the margin and spread floor the run's own
 (`PracticalConfig.utopia_margin`, `utopia_min_spread`; a configuration without them, the
@@ -44,7 +44,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from wcac_jax import scalarize, utopia
+from wcac_jax.core import scalarize, utopia
 
 # `utopia_point`'s margin and spread floor where the run's configuration has none (the
 # paper's): the practical preset's defaults (`PracticalConfig.utopia_margin`,
@@ -61,7 +61,7 @@ class Criterion(NamedTuple):
     """What a sweep's choice scores its candidates by (`criterion`).
 
     Attributes:
-      score: a registered scalarization (`wcac_jax.scalarize`), evaluated at each
+      score: a registered scalarization (`wcac_jax.core.scalarize`), evaluated at each
         candidate's returns and minimised.
       margin: the utopia point's margin over the best return (`utopia_point`).
       min_spread: the utopia point's least spread.

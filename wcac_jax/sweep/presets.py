@@ -76,7 +76,7 @@ class Defaults:
         them (e.g. Walker2d's model and engine); `envs.make`'s own defaults otherwise.
       selection: `(select_last, select_every)` of the sweep with this configuration:
         each preference reports the best of its last `select_last` policies,
-        `select_every` env steps apart (`wcac_jax.selection`), when the budget leaves
+        `select_every` env steps apart (`wcac_jax.sweep.selection`), when the budget leaves
         room for them; `(1, 0)`: the final policy.
       fallback: the environment has no entry of its own (`env_defaults`); `note` says so.
     """

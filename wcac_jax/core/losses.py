@@ -16,7 +16,7 @@ import jax
 import jax.numpy as jnp
 import optax
 
-from wcac_jax import networks
+from wcac_jax.core import networks
 
 
 def gae(
