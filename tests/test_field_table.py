@@ -7,6 +7,7 @@ import copy
 import importlib.util
 import json
 import os
+import sys
 
 import numpy as np
 import pytest
@@ -14,6 +15,7 @@ import pytest
 from wcac_jax import protocols
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(ROOT, "experiments"))  # the scripts' shared script_io
 _spec = importlib.util.spec_from_file_location(
     "field", os.path.join(ROOT, "experiments", "field.py")
 )
