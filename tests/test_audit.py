@@ -396,22 +396,37 @@ def test_plant_the_field_tables_mean_changed(tmp_path):
     )
 
 
+def _ablation_ratio(task: str, variant: str) -> tuple[float, str]:
+    """The committed ratio of `variant` to the defaults on `task`, and the seeds it pairs
+    as ablation.md prints them (`0, 1`)."""
+    with open(os.path.join(ROOT, FIELD, "ablation.json")) as f:
+        row = next(r for r in json.load(f)["rows"] if (r["task"], r["variant"]) == (task, variant))
+    return row["ratio_to_default"], ", ".join(map(str, row["paired_seeds"]))
+
+
 def test_plant_the_ablations_ratio_changed(tmp_path):
-    """hopper-2obj's 10 x 32 variant against the defaults on seed 1: its ratio 1.2 in
-    ablation.json and 1.26 in ablation.md, where its HV gives 1.16."""
+    """hopper-2obj's 10 x 32 variant against the defaults: its ratio 0.05 higher in
+    ablation.json and 0.10 higher in ablation.md than its HVs give."""
     root = _copy(tmp_path)
+    ratio, seeds = _ablation_ratio("hopper-2obj", "e10m32")
 
     def change(d):
         for r in d["rows"]:
             if (r["task"], r["variant"]) == ("hopper-2obj", "e10m32"):
-                r["ratio_to_default"] = 1.2
+                r["ratio_to_default"] = ratio + 0.05
 
     _edit_json(root, f"{FIELD}/ablation.json", change)
-    _edit_text(root, f"{FIELD}/ablation.md", "| 1.16 (1) |", "| 1.26 (1) |")
+    _edit_text(
+        root,
+        f"{FIELD}/ablation.md",
+        f"| {ratio:.2f} ({seeds}) |",
+        f"| {ratio + 0.1:.2f} ({seeds}) |",
+    )
     _fails(
         root,
-        r"field/ablation.json cmorl hopper-2obj e10m32 ratio_to_default: states 1.2,",
-        r"field/ablation.md cmorl hopper-2obj e10m32 'vs default \(same seeds\)': prints '1.26",
+        rf"field/ablation.json cmorl hopper-2obj e10m32 ratio_to_default: states {ratio + 0.05:.4}",
+        r"field/ablation.md cmorl hopper-2obj e10m32 'vs default \(same seeds\)': prints "
+        rf"'{ratio + 0.1:.2f}",
     )
 
 
@@ -463,20 +478,24 @@ def test_plant_the_field_tables_in_the_documents_changed(tmp_path):
     """The README's glance at the field printing hopper-2obj's ratio to C-MORL 1.12 for
     1.02, docs/results.md's field table printing PGMORL's published Hopper-2d HV 1.30e5
     for 1.20e5, and its ablation printing the 10 x 32 variant's ratio to the defaults
-    1.26 for 1.16."""
+    0.10 higher than its HVs give."""
     root = _copy(tmp_path)
-    _edit_text(
-        root, "README.md", "(C-MORL 1.37e5: 1.02; seeds 0)", "(C-MORL 1.37e5: 1.12; seeds 0)"
-    )
+    ratio, seeds = _ablation_ratio("hopper-2obj", "e10m32")
+    _edit_text(root, "README.md", "(C-MORL 1.37e5: 1.02; seeds 0", "(C-MORL 1.37e5: 1.12; seeds 0")
     _edit_text(root, "docs/results.md", "| 1.40e5 | 1.20e5 |", "| 1.40e5 | 1.30e5 |")
-    _edit_text(root, "docs/results.md", "| 1.16 (seeds 1) |", "| 1.26 (seeds 1) |")
+    _edit_text(
+        root,
+        "docs/results.md",
+        f"| {ratio:.2f} (seeds {seeds}) |",
+        f"| {ratio + 0.1:.2f} (seeds {seeds}) |",
+    )
     findings = _fails(
         root,
-        r"README.md table field_glance row 0 .*: prints '`hopper-2obj` 1.40e5 \(C-MORL 1.37e5: "
-        r"1.12; seeds 0\)'",
+        r"README.md table field_glance row 0 .*: prints '.*`hopper-2obj` 1.40e5 \(C-MORL 1.37e5: "
+        r"1.12; seeds 0",
         r"docs/results.md table field row 0 'PGMORL': prints '1.30e5', its data give \[120000.0\]",
         r"docs/results.md table field_ablation row \d+ 'vs default \(same seeds\)': prints "
-        r"'1.26 \(seeds 1\)'",
+        rf"'{ratio + 0.1:.2f} \(seeds {seeds}\)'",
     )
     assert len(findings) == 3, findings
 
@@ -521,25 +540,29 @@ def _evaluation_of(front: dict, scale: float = 0.98) -> dict:
 
 
 def test_plant_a_field_evaluation_the_tables_leave_out(tmp_path):
-    """An MO-Gymnasium evaluation beside hopper-2obj's seed-0 front (consistent with the
-    front, so it passes its own checks) that table.json and docs/results.md do not set
-    beside it; then its project side no longer the front's returns."""
+    """hopper-2obj's seed-0 MO-Gymnasium evaluation removed: table.json, table.md and
+    docs/results.md still set it beside the front; then, with it back, its project side
+    no longer the front's returns; then a consistent evaluation of other returns (0.98 of
+    the front's) in its place, which the tables do not give."""
     root = _copy(tmp_path)
     evaluation = f"{os.path.dirname(FIELD_FRONT)}/{audit.FIELD_EVALUATION}"
-    with open(os.path.join(root, FIELD_FRONT)) as f:
-        front = json.load(f)
-    with open(os.path.join(root, evaluation), "w") as f:
-        json.dump(_evaluation_of(front), f)
-    findings = _fails(
+    os.remove(os.path.join(root, evaluation))
+    _fails(
         root,
-        r"field/table.json cmorl hopper-2obj seed 0 mo_gymnasium: states None, its data give",
-        r"field/table.json cmorl hopper-2obj hv_mo_gymnasium: states None, its evaluations give",
-        r"docs/results.md table field row 0 'in MO-Gymnasium: HV, ratio': prints '–'",
+        r"field/table.json cmorl hopper-2obj seed 0 mo_gymnasium: states .*, its data give None",
+        r"field/table.json cmorl hopper-2obj hv_mo_gymnasium: states ",
+        r"docs/results.md table field row 0 'in MO-Gymnasium: HV, ratio': prints '1.40e5, 1.02'",
     )
-    assert not [line for line in findings if line.startswith(evaluation)], findings
+    shutil.copy(os.path.join(ROOT, evaluation), os.path.join(root, evaluation))
 
     def change(d):
         d["prefs"][5]["project"]["discounted_return"][0] += 1.0
 
     _edit_json(root, evaluation, change)
     _fails(root, rf"{evaluation} project discounted_return: not the returns of {FIELD_FRONT}")
+    with open(os.path.join(root, FIELD_FRONT)) as f:
+        front = json.load(f)
+    with open(os.path.join(root, evaluation), "w") as f:
+        json.dump(_evaluation_of(front), f)
+    findings = _fails(root, r"field/table.json cmorl hopper-2obj hv_mo_gymnasium .*: states ")
+    assert not [line for line in findings if line.startswith(evaluation)], findings
