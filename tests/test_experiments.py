@@ -452,7 +452,7 @@ def test_named_configs_keep_the_paper_setting_apart():
         (walker2d_ablation, ["--seeds", "0"], "--seeds must be >= 1, got 0"),
         (walker2d_ablation, ["--steps-per-pref", "-5"], "got -5"),
         (walker2d_front, ["--resume"], "--resume: nothing to resume"),
-        (walker2d_front, ["--resume", "--overwrite"], "--resume continues the run in --out"),
+        (walker2d_front, ["--resume", "--overwrite"], "--overwrite replaces it: give one"),
         (walker2d_front, ["--select-every", "2048"], "--select-every 2048 spaces"),
         (walker2d_front, ["--j-ub", "400,x"], "--j-ub '400,x'"),
         (walker2d_front, ["--config", "practical", "--j-ub", "1e39,1"], "finite"),
@@ -463,7 +463,7 @@ def test_named_configs_keep_the_paper_setting_apart():
             "ignores it",
         ),
         (walker2d_front, ["--config", "practical", "--utopia-margin", "-1"], "got -1.0"),
-        (walker2d_front, ["--select-last", "0"], "select_last must be a positive integer"),
+        (walker2d_front, ["--select-last", "0"], "--select-last must be a positive integer"),
         # the practical default's 5 candidates 20,480 env steps apart, asked for by a flag
         (
             walker2d_front,

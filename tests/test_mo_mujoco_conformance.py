@@ -209,6 +209,11 @@ def test_models_load_as_their_xml_states_without_warnings(name, capfd):
     ours = load_model(MODELS[name])
     warned = capfd.readouterr()
     assert "WARNING" not in warned.out + warned.err
+    if name not in UPSTREAM:
+        # PGMORL's and COLA's models, converted from files MuJoCo 4 refuses: checked
+        # against what MuJoCo 2.3.3 compiled from the originals (tests/test_pgmorl_tasks.py)
+        assert name.endswith("_pgmorl.xml"), f"{name} has no upstream text to check"
+        return
     want = _xml_expectations(UPSTREAM[name])
     assert want["masses"] and want["joints"] and want["motors"]
     np.testing.assert_allclose(ours.body_mass[1:], want["masses"], rtol=1e-9)

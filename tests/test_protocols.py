@@ -177,6 +177,15 @@ def test_protocol_run_end_to_end(toy_protocol, tmp_path, capsys):
     assert front["eval_gamma"] == 0.99
     returns = [row["discounted_return"] for row in front["prefs"]]
     assert score["hv"] == pytest.approx(TOY.score(returns)["hv"])
+    # a finished training whose front was not written: `--resume` alone evaluates it at
+    # the protocol's preferences (config.json records the training's one row), the same
+    # front again
+    for name in ("front.json", "front.csv", "front.png"):
+        (out / name).unlink()
+    assert cli.main(["--out", str(out), "--resume", "--quiet"]) == 0
+    again = json.loads((out / "front.json").read_text())
+    assert again["protocol"]["deviations"] == [] and again["protocol"]["eval_prefs"] == 5
+    assert again["prefs"] == front["prefs"]
 
 
 @pytest.mark.parametrize(

@@ -166,7 +166,7 @@ def test_load_sweep_restores_the_trained_state(tiny_run, tmp_path):
     with pytest.raises(sweep.SweepError, match="no sweep in"):
         sweep.load_sweep(str(tmp_path))
     (tmp_path / "config.json").write_text("{not json")
-    with pytest.raises(sweep.SweepError, match="no readable sweep config"):
+    with pytest.raises(sweep.SweepError, match="is not readable JSON"):
         sweep.load_sweep(str(tmp_path))
 
 

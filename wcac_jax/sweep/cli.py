@@ -40,7 +40,7 @@ from wcac_jax.sweep import defaults as resolution
 from wcac_jax.sweep.conditioned import training_sweep
 from wcac_jax.sweep.outputs import json_bytes
 from wcac_jax.sweep.protocol import budget_note as protocol_budget_note
-from wcac_jax.sweep.protocol import protocol_sweep
+from wcac_jax.sweep.protocol import protocol_prefs, protocol_sweep
 
 PROG = "python -m wcac_jax.sweep"
 
@@ -785,8 +785,10 @@ def resume_config(args, given: dict[str, str]) -> SweepConfig:
             f"--resume: the sweep in {args.out!r} ran with other values than "
             f"{'; '.join(differ[:3])}{more}; --resume alone continues it"
         )
-    if not conditioned or saved.protocol is not None:  # a protocol fixes its preferences
+    if not conditioned:
         return saved
+    if saved.protocol is not None:  # config.json records the training; the protocol its grid
+        return dataclasses.replace(saved, prefs=protocol_prefs(saved.protocol, saved.env))
     if args.prefs is not None:
         prefs = _parse_prefs(args.prefs)
     else:  # the preferences the network is evaluated at: asked for, or the default's

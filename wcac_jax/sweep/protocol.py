@@ -64,11 +64,8 @@ def protocol_sweep(
         **{k: v for k, v in protocol_options.items() if k in accepted},
         **(env_options or {}),
     }
-    prefs = tuple(
-        tuple(round(float(x), 6) for x in p) for p in spec.eval_prefs(task.num_objectives)
-    )
     return SweepConfig(
-        prefs=prefs,
+        prefs=protocol_prefs(protocol, env),
         env=env,
         env_options=options,
         train=train,
@@ -79,6 +76,14 @@ def protocol_sweep(
         select_every=select_every,
         protocol=protocol,
     )
+
+
+def protocol_prefs(protocol: str, env: str) -> tuple[tuple[float, ...], ...]:
+    """The preferences `protocol` evaluates `env`'s front at (its grid), rounded to 6
+    decimals as `config.json` records them."""
+    spec = protocols.get(protocol)
+    m = spec.task(env).num_objectives
+    return tuple(tuple(round(float(x), 6) for x in p) for p in spec.eval_prefs(m))
 
 
 def budget_note(config: SweepConfig) -> str:
