@@ -38,10 +38,9 @@ import time
 
 import numpy as np
 import walker2d_common
+from mo_mujoco import MORL_BASELINES_REF  # the suite's convention: one constant
 from script_io import fail, finish_out, make_out
 
-# morl-baselines' (and C-MORL's) convention: discounted returns, reference per objective
-MORL_BASELINES_REF = -100.0
 ARMS = {
     "conditioned": ["--conditioned", "--total-steps", "3000000", "--eval-prefs", "33"],
     "independent_9x333k": ["--n-prefs", "9", "--steps-per-pref", "333334"],
