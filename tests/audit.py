@@ -678,26 +678,6 @@ D3PO_TABLE = {
 }
 
 
-def check_published(where: str, entries: list) -> Findings:
-    """Published numbers as a results file cites them, against COLA's Table 1."""
-    out = Findings()
-    seen = set()
-    for p in entries:
-        printed = COLA_TABLE_1.get(p["task"], {}).get(p["method"])
-        key = (p["task"], p["method"], p["metric"])
-        if printed is None or p["metric"] not in ("HV", "EU"):
-            out.append(f"{where} {key}: not in COLA's Table 1")
-            continue
-        seen.add(key)
-        value, sd = printed[0 if p["metric"] == "HV" else 1]
-        out.close(f"{where} {key} value", p["value"], value)
-        out.close(f"{where} {key} sd", p.get("sd"), sd)
-    every = {(t, m, k) for t, ms in COLA_TABLE_1.items() for m in ms for k in ("HV", "EU")}
-    if every - seen:
-        out.append(f"{where}: leaves out {sorted(every - seen)}")
-    return out
-
-
 def check_conditioned(repo: Repo, rel: str) -> Findings:
     """`conditioned_front.py`'s summary: each arm and seed from its `front.json`, the
     means and the cost of more front points."""
