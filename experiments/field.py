@@ -116,6 +116,17 @@ def reference_eval(out: str) -> int:
     return subprocess.call(cmd, cwd=ROOT)
 
 
+def _scored(out: str) -> bool:
+    """Whether the run in `out` has finished: its `front.json` holds the protocol's
+    scores (a conditioned run writes its training's front first and replaces it once
+    evaluated, so a run stopped in between has a `front.json` without them)."""
+    try:
+        with open(os.path.join(out, "front.json")) as f:
+            return "protocol" in json.load(f)
+    except (OSError, ValueError):
+        return False
+
+
 def run(
     results: str,
     protocol: str,
@@ -130,7 +141,7 @@ def run(
     reference = reference and protocol in REFERENCE_PROTOCOLS
     for seed in seeds:
         out = seed_dir(results, protocol, env, seed)
-        if os.path.isfile(os.path.join(out, "front.json")) and resume:
+        if _scored(out) and resume:
             print(f"{out} is finished", flush=True)
             status = reference_eval(out) if reference else 0
             if status:

@@ -383,16 +383,37 @@ def test_plant_a_field_return_changed(tmp_path):
     )
 
 
+HOPPER = "hopper-2obj"
+
+
+def _committed_row(rel: str, *cells: str) -> list[str]:
+    """The cells of the first row of a committed Markdown table (`rel`, from the
+    repository's root) that has each of `cells` as a whole cell, so that a planted
+    change edits what the committed tables print now, whatever the seeds."""
+    with open(os.path.join(ROOT, rel)) as f:
+        for line in f:
+            row = [c.strip() for c in line.strip().strip("|").split("|")]
+            if line.startswith("|") and all(c in row for c in cells):
+                return row
+    raise AssertionError(f"{rel} has no row with {cells}")
+
+
 def test_plant_the_field_tables_mean_changed(tmp_path):
-    """hopper-2obj's HV mean 0.1% higher in table.json, and printed 1.5e+05 for 1.4e+05 in
-    table.md: each no longer what its fronts give."""
+    """hopper-2obj's HV mean 0.1% higher in table.json, and its printed mean in table.md
+    changed to 9.9e+05: each no longer what its fronts give."""
     root = _copy(tmp_path)
-    _edit_json(root, f"{FIELD}/table.json", lambda d: d["rows"][0]["hv"].update(mean=1.4001e5))
-    _edit_text(root, f"{FIELD}/table.md", "| 1.4e+05 [1.4e+05", "| 1.5e+05 [1.4e+05")
+    with open(os.path.join(ROOT, FIELD, "table.json")) as f:
+        rows = json.load(f)["rows"]
+    i = next(i for i, r in enumerate(rows) if (r["protocol"], r["task"]) == ("cmorl", HOPPER))
+    planted = float(round(rows[i]["hv"]["mean"] * 1.001))
+    _edit_json(root, f"{FIELD}/table.json", lambda d: d["rows"][i]["hv"].update(mean=planted))
+    cell = _committed_row(f"{FIELD}/table.md", "cmorl", "hopper-2obj")[3]
+    mean = cell.split(" ")[0]
+    _edit_text(root, f"{FIELD}/table.md", f"| {cell} |", f"| 9.9e+05{cell[len(mean) :]} |")
     _fails(
         root,
-        r"field/table.json cmorl hopper-2obj hv mean: states 140010",
-        r"field/table.md cmorl hopper-2obj 'HV mean \[95%\]': prints '1.5e\+05",
+        rf"field/table.json cmorl hopper-2obj hv mean: states {int(planted)}",
+        r"field/table.md cmorl hopper-2obj 'HV mean \[95%\]': prints '9.9e\+05",
     )
 
 
@@ -475,14 +496,25 @@ def test_plant_an_mo_gymnasium_agreement_changed(tmp_path):
 
 
 def test_plant_the_field_tables_in_the_documents_changed(tmp_path):
-    """The README's glance at the field printing hopper-2obj's ratio to C-MORL 1.12 for
-    1.02, docs/results.md's field table printing PGMORL's published Hopper-2d HV 1.30e5
-    for 1.20e5, and its ablation printing the 10 x 32 variant's ratio to the defaults
-    0.10 higher than its HVs give."""
+    """The README's glance at the field printing hopper-2obj's ratio to C-MORL 0.10
+    higher than committed, docs/results.md's field table printing PGMORL's published
+    Hopper-2d HV 1.30e5 for 1.20e5, and its ablation printing the 10 x 32 variant's ratio
+    to the defaults 0.10 higher than its HVs give."""
     root = _copy(tmp_path)
     ratio, seeds = _ablation_ratio("hopper-2obj", "e10m32")
-    _edit_text(root, "README.md", "(C-MORL 1.37e5: 1.02; seeds 0", "(C-MORL 1.37e5: 1.12; seeds 0")
-    _edit_text(root, "docs/results.md", "| 1.40e5 | 1.20e5 |", "| 1.40e5 | 1.30e5 |")
+    with open(os.path.join(ROOT, "README.md")) as f:
+        text = f.read()
+    glance = re.search(r"`hopper-2obj`\]\([^)]*\) (\S+) \(C-MORL 1.37e5: (\d\.\d\d)[ ;]", text)
+    hv, printed = glance.groups()
+    _edit_text(
+        root,
+        "README.md",
+        f"{hv} (C-MORL 1.37e5: {printed}",
+        f"{hv} (C-MORL 1.37e5: {float(printed) + 0.1:.2f}",
+    )
+    row = _committed_row("docs/results.md", "cmorl", "Hopper-2d")
+    assert row[5] == "1.20e5", row
+    _edit_text(root, "docs/results.md", f"| {row[4]} | 1.20e5 |", f"| {row[4]} | 1.30e5 |")
     _edit_text(
         root,
         "docs/results.md",
@@ -491,8 +523,8 @@ def test_plant_the_field_tables_in_the_documents_changed(tmp_path):
     )
     findings = _fails(
         root,
-        r"README.md table field_glance row 0 .*: prints '.*`hopper-2obj` 1.40e5 \(C-MORL 1.37e5: "
-        r"1.12; seeds 0",
+        r"README.md table field_glance row 0 .*: prints '.*`hopper-2obj` "
+        rf"{re.escape(hv)} \(C-MORL 1.37e5: {float(printed) + 0.1:.2f}[ ;]",
         r"docs/results.md table field row 0 'PGMORL': prints '1.30e5', its data give \[120000.0\]",
         r"docs/results.md table field_ablation row \d+ 'vs default \(same seeds\)': prints "
         rf"'{ratio + 0.1:.2f} \(seeds {seeds}\)'",
@@ -551,7 +583,8 @@ def test_plant_a_field_evaluation_the_tables_leave_out(tmp_path):
         root,
         r"field/table.json cmorl hopper-2obj seed 0 mo_gymnasium: states .*, its data give None",
         r"field/table.json cmorl hopper-2obj hv_mo_gymnasium: states ",
-        r"docs/results.md table field row 0 'in MO-Gymnasium: HV, ratio': prints '1.40e5, 1.02'",
+        r"docs/results.md table field row 0 'in MO-Gymnasium: HV, ratio': prints "
+        + re.escape(repr(_committed_row("docs/results.md", "cmorl", "Hopper-2d")[8])),
     )
     shutil.copy(os.path.join(ROOT, evaluation), os.path.join(root, evaluation))
 

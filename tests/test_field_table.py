@@ -162,3 +162,21 @@ def test_published_numbers_are_filed_on_their_definitions():
     tasks = {(p.name, t.env) for p in protocols.PROTOCOLS.values() for t in p.tasks}
     assert keys <= tasks
     assert np.all([e["hv"] > 0 for e in entries])
+
+
+def test_run_resumes_a_front_written_before_its_evaluation(tmp_path, monkeypatch):
+    """A conditioned run stopped between its training's `front.json` and the evaluation
+    that replaces it goes back to the sweep with --resume; a scored run is left as it is."""
+    calls = []
+    monkeypatch.setattr(field.subprocess, "call", lambda cmd, cwd=None: calls.append(cmd) or 0)
+    for seed, front in ((0, {"prefs": [], "env_steps_total": 8192}), (1, _front(1, FRONTS[1]))):
+        d = tmp_path / "cmorl" / "hopper-2obj" / f"seed{seed}"
+        d.mkdir(parents=True)
+        (d / "front.json").write_text(json.dumps(front))
+        (d / field.REFERENCE_EVAL).write_text("{}")
+    status = field.run(str(tmp_path), "cmorl", "hopper-2obj", [0, 1], resume=True, overwrite=False)
+    assert status == 0
+    assert len(calls) == 1, calls
+    out = str(tmp_path / "cmorl" / "hopper-2obj" / "seed0")
+    assert calls[0][calls[0].index("--out") + 1] == out
+    assert "--resume" in calls[0]
