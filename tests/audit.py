@@ -36,10 +36,11 @@ preferences' optima, its front and the front's hypervolume) derived here from th
 problem's definition; convergence.json from its measured gaps.
 
 A front that no family claims, or a generated block of the documents that no entry of
-`DOC_TABLES` / `DOC_VALUES` names, is itself a finding. One count is accepted in two
-forms: a conditioned network's evaluation env steps as counted, or as the earlier code
-counted them, truncated by up to one step per episode (`eval_steps`), which the field's
-first fronts state.
+`DOC_TABLES` / `DOC_VALUES` names, is itself a finding. One count is accepted short of
+what its data give on the fronts named, and only there: the field's first fronts state a
+conditioned network's evaluation env steps as the earlier code counted them, truncated
+by up to one step per episode; `EARLIER_EVAL_STEPS` lists each by path with the steps it
+states fewer (`eval_steps`, `check_earlier_eval_steps`).
 """
 
 from __future__ import annotations
@@ -747,24 +748,81 @@ def check_conditioned(repo: Repo, rel: str) -> Findings:
     return out
 
 
-def eval_steps(f: Front) -> tuple[int, set[int]]:
-    """One network's evaluation env steps: the episodes times the summed mean lengths, and
-    where it chose each preference's policy among its last ones, the episodes times every
-    candidate's mean lengths too. `(count, as the earlier code counted it)`: that code
-    truncated the summed mean lengths (float32) before multiplying by the episodes, up
-    to `episodes - 1` steps short (the field's first fronts, written by it, state that
-    count; see `check_env_steps`)."""
-    e, total = f.episodes, float(f.lengths.sum())
+_FIELD_DIR = f"{RESULTS}/field"
+# The fronts whose evaluation env steps the earlier code counted: it truncated the summed
+# mean lengths (float32) to a whole number before multiplying by the episodes, so each
+# states its count short by less than one step per episode. Each is listed with the
+# steps it states fewer than the count (found by recomputing every conditioned front's
+# count, `eval_steps`); every other front states the count itself.
+EARLIER_EVAL_STEPS = {
+    f"{_FIELD_DIR}/ablation/cmorl/ant-2obj/default/seed0/front.json": 6,
+    f"{_FIELD_DIR}/ablation/cmorl/ant-2obj/e10m32-logstd-1/seed0/front.json": 4,
+    f"{_FIELD_DIR}/ablation/cmorl/ant-2obj/logstd-1/seed0/front.json": 9,
+    f"{_FIELD_DIR}/ablation/cmorl/ant-2obj/m32-logstd-1/seed0/front.json": 7,
+    f"{_FIELD_DIR}/ablation/cmorl/ant-2obj/m64-logstd-1/seed0/front.json": 6,
+    f"{_FIELD_DIR}/ablation/cmorl/hopper-2obj/default/seed0/front.json": 2,
+    f"{_FIELD_DIR}/ablation/cmorl/hopper-2obj/default/seed1/front.json": 2,
+    f"{_FIELD_DIR}/ablation/cmorl/hopper-2obj/e10m32-alpha0.5/seed0/front.json": 5,
+    f"{_FIELD_DIR}/ablation/cmorl/hopper-2obj/e10m32-film/seed0/front.json": 4,
+    f"{_FIELD_DIR}/ablation/cmorl/hopper-2obj/e10m32-mu10/seed0/front.json": 4,
+    f"{_FIELD_DIR}/ablation/cmorl/hopper-2obj/e10m32-sel3/seed0/front.json": 3,
+    f"{_FIELD_DIR}/ablation/cmorl/hopper-2obj/e10m32-w256/seed0/front.json": 3,
+    f"{_FIELD_DIR}/ablation/cmorl/hopper-2obj/e10m32/seed0/front.json": 1,
+    f"{_FIELD_DIR}/ablation/cmorl/hopper-2obj/e10m32/seed1/front.json": 2,
+    f"{_FIELD_DIR}/ablation/cmorl/hopper/e10m32/seed0/front.json": 9,
+    f"{_FIELD_DIR}/ablation/cmorl/humanoid/default/seed0/front.json": 8,
+    f"{_FIELD_DIR}/ablation/cmorl/humanoid/e10m32/seed0/front.json": 5,
+    f"{_FIELD_DIR}/cmorl/ant-2obj/seed0/front.json": 7,
+    f"{_FIELD_DIR}/cmorl/ant/seed0/front.json": 8,
+    f"{_FIELD_DIR}/cmorl/hopper-2obj/seed0/front.json": 1,
+    f"{_FIELD_DIR}/cmorl/hopper/seed0/front.json": 9,
+    f"{_FIELD_DIR}/cmorl/humanoid/seed0/front.json": 8,
+    f"{_FIELD_DIR}/cmorl/walker2d/seed0/front.json": 3,
+}
+
+
+def eval_count(f: Front) -> tuple[int, int]:
+    """One network's evaluation env steps, `(count, extra)`: the episodes times the
+    summed mean lengths, and where it chose each preference's policy among its last
+    ones, `extra`, the episodes times every candidate's mean lengths."""
+    e = f.episodes
     chosen = f.data.get("selection", {}).get("candidate_length")
     extra = int(round(e * float(np.sum(chosen)))) if chosen is not None else 0
-    earlier = {e * math.floor(total + d) + extra for d in (-1e-3, 1e-3)}
-    return int(round(e * total)) + extra, earlier
+    return int(round(e * float(f.lengths.sum()))) + extra, extra
+
+
+def eval_steps(f: Front) -> int:
+    """One network's evaluation env steps as its front states them: the count
+    (`eval_count`), less the steps `EARLIER_EVAL_STEPS` lists for a front the earlier
+    code counted."""
+    return eval_count(f)[0] - EARLIER_EVAL_STEPS.get(f.path, 0)
+
+
+def check_earlier_eval_steps(repo: Repo) -> Findings:
+    """Each front `EARLIER_EVAL_STEPS` lists is a conditioned network's, and the steps
+    listed are what the earlier code's truncation leaves out: the episodes times the
+    whole part of the summed mean lengths (within 1e-3 of their float64 sum: the code
+    summed float32) is the count less them."""
+    out = Findings()
+    for rel, short in EARLIER_EVAL_STEPS.items():
+        where = f"EARLIER_EVAL_STEPS {rel}"
+        if not repo.exists(rel) or "conditioned" not in repo.json(rel):
+            out.append(f"{where}: no conditioned network's front there")
+            continue
+        f = repo.front(rel)
+        (count, extra), total = eval_count(f), float(f.lengths.sum())
+        truncated = {f.episodes * math.floor(total + d) + extra for d in (-1e-3, 1e-3)}
+        if count - short not in truncated - {count}:
+            out.append(
+                f"{where}: lists {short} steps short of {count}, the earlier code's "
+                f"truncation gives {sorted(count - t for t in truncated)}"
+            )
+    return out
 
 
 def check_env_steps(f: Front, where: str, total, eval_env_steps) -> Findings:
     """A front's training env steps (iterations x envs x rollout steps, per preference or
-    for the one network) and, for one network, its evaluation's (`eval_steps`: the
-    count, or the earlier code's count short by less than one step per episode)."""
+    for the one network) and, for one network, its evaluation's (`eval_steps`)."""
     out, train = Findings(), f.data["config"]["train"]
     # per iteration: the rollout's steps, and for the paper's update (Algorithm 2) also
     # the critics' K TD steps on every environment
@@ -774,9 +832,7 @@ def check_env_steps(f: Front, where: str, total, eval_env_steps) -> Findings:
     per_program = train["num_iterations"] * train["num_envs"] * per_iteration
     if "conditioned" in f.data:
         out.equal(f"{where} env_steps_total", total, per_program)
-        count, earlier = eval_steps(f)
-        if eval_env_steps not in earlier:
-            out.equal(f"{where} eval_env_steps", eval_env_steps, count)
+        out.equal(f"{where} eval_env_steps", eval_env_steps, eval_steps(f))
     else:
         out.equal(f"{where} env_steps_total", total, per_program * len(f.prefs))
         out.equal(f"{where} eval_env_steps", eval_env_steps, None)
@@ -1111,9 +1167,7 @@ def check_protocol_front(repo: Repo, rel: str, hv_ref) -> Findings:
     if d["env_steps_total"] > p.budget[m]:
         out.append(f"{w}: trained {d['env_steps_total']} env steps, past the budget")
     out.equal(f"{w} eval_prefs", s["eval_prefs"], len(f.prefs))
-    count, earlier = eval_steps(f)
-    if s["eval_env_steps"] not in earlier:
-        out.equal(f"{w} eval_env_steps", s["eval_env_steps"], count)
+    out.equal(f"{w} eval_env_steps", s["eval_env_steps"], eval_steps(f))
     out.extend(check_departures(f"{w} deviations", s["deviations"], protocol_departures(f)))
     if "selection" not in d:  # fronts written before it was recorded lack it
         out.equal(f"{w} final_network", s.get("final_network"), None)
@@ -1251,9 +1305,7 @@ def check_field_table(repo: Repo, rel: str) -> Findings:
             out.close(f"{ws} eu", x["eu"], score["eu"])
             out.equal(f"{ws} nondominated", x["nondominated"], score["nondominated"])
             out.equal(f"{ws} env_steps_trained", x["env_steps_trained"], f.data["env_steps_total"])
-            count, earlier = eval_steps(f)
-            if x["eval_env_steps"] not in earlier:
-                out.equal(f"{ws} eval_env_steps", x["eval_env_steps"], count)
+            out.equal(f"{ws} eval_env_steps", x["eval_env_steps"], eval_steps(f))
             out.close(f"{ws} wall_s", x["wall_s"], f.data["wall_s"])
             if protocol_departures(f):
                 out.append(f"{ws}: departs from the protocol, yet stands in the table")
@@ -1349,8 +1401,8 @@ def check_md_rows(rel: str, header: list, rows: list, wants: dict, labels: int) 
 
 def check_field_table_md(repo: Repo, rel: str) -> Findings:
     """`table.md`: each protocol task's row, from its fronts and the published entries
-    (the first seed's env steps; its evaluation's as counted, or as the earlier code
-    counted them, `eval_steps`)."""
+    (the first seed's env steps, its evaluation's as its front states them,
+    `eval_steps`)."""
     base, wants = os.path.dirname(rel), {}
     entries = field_entries(repo, base)
     for name, env in field_tasks(repo, base):
@@ -1358,7 +1410,6 @@ def check_field_table_md(repo: Repo, rel: str) -> Findings:
             continue
         row = field_row(repo, name, env, entries)
         first = row["fronts"][0]
-        count, earlier = eval_steps(first)
         best = row["best"]
         wants[(name, env)] = {
             "seeds": [len(row["seeds"])],
@@ -1369,7 +1420,7 @@ def check_field_table_md(repo: Repo, rel: str) -> Findings:
             else [best["method"], best["hv"]],
             "ratio [95%]": ["—"] if best is None else list(row["ratio"]),
             "env steps trained": [first.data["env_steps_total"]],
-            "eval env steps": [(min(earlier | {count}), count)],
+            "eval env steps": [eval_steps(first)],
             "wall s per seed": [f.data["wall_s"] for f in row["fronts"]],
         }
         hv_mo_gymnasium = row["hv_mo_gymnasium"]
@@ -3069,7 +3120,6 @@ def field_wants(t: Table, repo: Repo) -> Iterator:
         best, mg, mg_ratio = row["best"], row["hv_mo_gymnasium"], row["ratio_mo_gymnasium"]
         pgmorl = next((e for e in row["published"] if e["method"] == "PGMORL"), None)
         walls = [f.data["wall_s"] for f in row["fronts"]]
-        count, earlier = eval_steps(first)
         yield i, "published as", [protocol_task(*key).published]
         yield i, "seeds", row["seeds"]
         yield i, "HV mean [95%]", interval_want(row["hv"], n)
@@ -3086,7 +3136,7 @@ def field_wants(t: Table, repo: Repo) -> Iterator:
             ["–"] if mg is None else [mg[0], *([] if mg_ratio is None else [mg_ratio[0]])],
         )
         yield i, "env steps trained", [first.data["env_steps_total"]]
-        yield i, "eval env steps", [(min(earlier | {count}), count)]
+        yield i, "eval env steps", [eval_steps(first)]
         yield i, "wall s per seed", [min(walls), max(walls)] if n > 1 else walls
     for key in rows:
         if printed.count(key) != 1:
@@ -3552,4 +3602,5 @@ def audit(root: str) -> list[str]:
         *check_docs(repo),
         *check_kuairand(repo),
         *check_known_answers(repo),
+        *check_earlier_eval_steps(repo),
     ]

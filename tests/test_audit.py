@@ -715,3 +715,58 @@ def test_plant_a_convergence_gap_changed(tmp_path):
         r"prints '0.13%'",
         r"README.md table glance row \d+ 'what the front achieves': prints .*0.13%",
     )
+
+
+def _lengths_and_count(rel: str) -> tuple[float, int, int]:
+    """A conditioned network's committed front: its summed mean lengths, its episodes per
+    preference and its evaluation env steps as counted (the episodes times the summed
+    mean lengths, and times each candidate's where it chose among its last policies)."""
+    with open(os.path.join(ROOT, rel)) as f:
+        d = json.load(f)
+    total, e = sum(r["episode_length"] for r in d["prefs"]), d["config"].get("eval_episodes", 8)
+    chosen = d.get("selection", {}).get("candidate_length")
+    extra = round(e * float(np.sum(chosen))) if chosen is not None else 0
+    return total, e, round(e * total) + extra
+
+
+def test_plant_evaluation_steps_short_where_no_list_allows_it(tmp_path, monkeypatch):
+    """Evaluation env steps short of the count are accepted only on the fronts
+    `EARLIER_EVAL_STEPS` lists, by exactly the steps listed. Planted: the conditioned
+    network's seed-0 front (and its summary) stating the count as the earlier code
+    would have truncated it (8 x the whole part of its summed mean lengths); a field
+    front of the ablation (its summed mean lengths a hair above a whole number) one step
+    per episode short; hopper-2obj's seed-0 front, listed 1 short, stating the full
+    count; and a listed shortfall the truncation does not give."""
+    root = _copy(tmp_path)
+    total, e, count = _lengths_and_count(COND)
+    truncated = e * math.floor(total)
+    assert 0 < count - truncated < e  # what the previous audit accepted here
+    _edit_json(root, COND, lambda d: d["conditioned"].update(eval_env_steps=truncated))
+    summary = f"{R}/conditioned_walker2d/summary.json"
+    _edit_json(
+        root, summary, lambda d: d["runs"]["conditioned"]["0"].update(eval_env_steps=truncated)
+    )
+    sel3 = f"{FIELD}/ablation/cmorl/hopper-2obj/e10m32-sel3/seed1/front.json"
+    _, e3, count3 = _lengths_and_count(sel3)
+
+    def short(d):
+        d["conditioned"]["eval_env_steps"] = count3 - e3
+        d["protocol"]["eval_env_steps"] = count3 - e3
+
+    _edit_json(root, sel3, short)
+    listed = FIELD_FRONT
+    assert audit.EARLIER_EVAL_STEPS[listed] == 1
+    _, _, full = _lengths_and_count(listed)
+    _edit_json(root, listed, lambda d: d["conditioned"].update(eval_env_steps=full))
+    wrong = f"{FIELD}/cmorl/walker2d/seed0/front.json"
+    monkeypatch.setitem(audit.EARLIER_EVAL_STEPS, wrong, audit.EARLIER_EVAL_STEPS[wrong] + 2)
+    _fails(
+        root,
+        rf"{COND} eval_env_steps: states {truncated}, its data give {count}$",
+        rf"conditioned_walker2d/summary.json conditioned seed 0 eval_env_steps: states {truncated}",
+        rf"{sel3} eval_env_steps: states {count3 - e3}, its data give {count3}$",
+        rf"{sel3} protocol eval_env_steps: states {count3 - e3}, its data give {count3}$",
+        rf"{listed} eval_env_steps: states {full}, its data give {full - 1}$",
+        rf"EARLIER_EVAL_STEPS {wrong}: lists 5 steps short of \d+, the earlier code's "
+        r"truncation gives \[3\]",
+    )
