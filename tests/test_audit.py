@@ -377,6 +377,25 @@ def test_plant_a_recommendation_value_changed(tmp_path):
     )
 
 
+def test_plant_two_recommendation_seeds_swapped(tmp_path):
+    """Two training seeds' values of Algorithm 1 on data set 2 exchanged (NCIS, true
+    and unified values): every mean, gap share and point estimate stays, so only the
+    interval with the data sets resampled, which draws the seeds by index for every
+    method alike, can tell; its upper end no longer follows, and nothing else moves."""
+    root = _copy(tmp_path)
+
+    def change(d):
+        row = d["data_sets"][2]["wcac (Algorithm 1)"]
+        for key in ("ncis", "truth", "unified_truth"):
+            row[key][0], row[key][1] = row[key][1], row[key][0]
+
+    _edit_json(root, f"{R}/kuairand/per_seed.json", change)
+    findings = _fails(
+        root, r"wcac \(Algorithm 1\) gap share interval over data sets \(high\): states "
+    )
+    assert len(findings) == 1, findings
+
+
 def test_plant_a_summary_number_changed(tmp_path):
     """The one summary without per-direction entries (the conditioned one) is audited, not
     skipped: its seed-0 hypervolume (morl-baselines) 0.1% higher fails; so does a
