@@ -39,6 +39,9 @@ def test_the_audit_walks_every_front_and_reads_every_generated_block():
     # the headline blocks are recomputed, not waved through
     for name in ("glance", "conditioned", "mo_mujoco", "mo_mujoco_seeds", "cli_default"):
         assert callable(audit.DOC_TABLES[name]), name
+    # so are the problems with known answers, from their raw angles, returns and gaps
+    for name in ("exploration_bandit", "exploration_dst", "convergence"):
+        assert callable(audit.DOC_TABLES[name]), name
     # MO-Gymnasium's evaluations hold evaluated returns: walked, and claimed by a family
     # that checks them as evaluations (no reference of their own), their table recomputed
     assert f"{audit.RESULTS}/mo_gymnasium_eval/hopper.json" in fronts
@@ -137,6 +140,41 @@ def test_protocol_scores_by_hand():
     t = math.tan(0.475 * math.pi)
     assert audit.t_interval([1.0, 3.0]) == pytest.approx((2.0, 2.0 - t, 2.0 + t))
     assert audit.t_interval([5.0]) == (5.0, 5.0, 5.0)
+
+
+def test_known_answers_by_hand():
+    """The problems with known answers: the bandit's optimum at equal weights is the
+    middle of the front, at `[1, 0]` its end; Deep Sea Treasure's front is the
+    upper-right hull of its shortest paths (neither a point below the chord between two
+    others nor the hull's lower-left side); the weighted-Chebyshev optimum on a segment
+    is where the weighted terms cross; a distance to the front and a position along it;
+    distinct points; and the log-log slope of `1 / t`."""
+    z = (1.1, 1.1)
+    assert audit.bandit_wc_theta((0.5, 0.5), z) == pytest.approx(math.pi / 4, abs=1e-12)
+    assert audit.bandit_wc_theta((1.0, 0.0), z) == 0.0
+    assert audit.bandit_wc_theta((0.0, 1.0), z) == math.pi / 2
+    np.testing.assert_allclose(
+        audit.bandit_reward([0.0, math.pi / 2]), [[1, 0], [0, 1]], atol=1e-15
+    )
+    # the shortest path to the first treasure: one step down, treasure 1 and time -1
+    np.testing.assert_allclose(audit.dst_paths(0.99)[0], [1.0, -1.0])
+    np.testing.assert_allclose(audit.dst_paths(0.5)[-1], [124 * 0.5**18, -(1 - 0.5**19) / 0.5])
+    hull = audit.upper_right_hull([[0, 4], [1, 1], [2, 2.5], [4, 0], [3, 1.0]])
+    # (1, 1) is a vertex of the hull, not of its front; (3, 1) lies below the chord from
+    # (2, 2.5) to (4, 0)
+    assert hull.tolist() == [[0, 4], [2, 2.5], [4, 0]]
+    segment = np.array([[0.0, 10.0], [10.0, 0.0]])
+    # p (z - J) equal on both objectives from utopia (10, 10): 0.2 (10 - x) = 0.8 x
+    np.testing.assert_allclose(audit.front_wc_optimum((0.2, 0.8), segment, (10, 10)), [2, 8])
+    # a utopia the segment's end already reaches on one objective: that end
+    np.testing.assert_allclose(audit.front_wc_optimum((1.0, 0.0), segment, (10, 10)), [10, 0])
+    dist, along = audit.to_front([[5.0, 5.0], [6.0, 6.0], [-1.0, 10.0]], segment)
+    np.testing.assert_allclose(dist, [0.0, math.sqrt(2), 1.0], atol=1e-12)
+    np.testing.assert_allclose(along, [0.5, 0.5, 0.0])
+    assert audit.count_distinct([[0, 0], [0.5, 0], [1.2, 0], [1.6, 0]], 1.0) == 2
+    assert audit.largest_gap([0.3, 0.5], 0.0, 1.0) == pytest.approx(0.5)
+    t = np.arange(10.0, 1001.0, 10.0)
+    assert audit.log_log_slope(t, 3.0 / t) == pytest.approx(-1.0)
 
 
 def test_printed_numbers_are_read_with_their_precision():
@@ -337,6 +375,25 @@ def test_plant_a_recommendation_value_changed(tmp_path):
         r"wcac \(Algorithm 1\) gap_share:",
         r"wcac \(Algorithm 1\) gap share interval over data sets",
     )
+
+
+def test_plant_two_recommendation_seeds_swapped(tmp_path):
+    """Two training seeds' values of Algorithm 1 on data set 2 exchanged (NCIS, true
+    and unified values): every mean, gap share and point estimate stays, so only the
+    interval with the data sets resampled, which draws the seeds by index for every
+    method alike, can tell; its upper end no longer follows, and nothing else moves."""
+    root = _copy(tmp_path)
+
+    def change(d):
+        row = d["data_sets"][2]["wcac (Algorithm 1)"]
+        for key in ("ncis", "truth", "unified_truth"):
+            row[key][0], row[key][1] = row[key][1], row[key][0]
+
+    _edit_json(root, f"{R}/kuairand/per_seed.json", change)
+    findings = _fails(
+        root, r"wcac \(Algorithm 1\) gap share interval over data sets \(high\): states "
+    )
+    assert len(findings) == 1, findings
 
 
 def test_plant_a_summary_number_changed(tmp_path):
@@ -599,3 +656,136 @@ def test_plant_a_field_evaluation_the_tables_leave_out(tmp_path):
         json.dump(_evaluation_of(front), f)
     findings = _fails(root, r"field/table.json cmorl hopper-2obj hv_mo_gymnasium .*: states ")
     assert not [line for line in findings if line.startswith(evaluation)], findings
+
+
+EXPLORATION = f"{R}/exploration/exploration.json"
+
+
+def test_plant_a_bandit_angle_changed(tmp_path):
+    """The concave bandit's learned angle of `smooth_wc` at the sixth preference 0.1 rad
+    larger: its point, its distance from its optimum, the hypervolume and the largest gap
+    in angle that exploration.json states no longer follow, nor the docs' table and the
+    README's glance that print them."""
+    root = _copy(tmp_path)
+
+    def change(d):
+        d["problems"]["concave_bandit"]["directions"]["smooth_wc"]["theta"][5] += 0.1
+
+    _edit_json(root, EXPLORATION, change)
+    w = f"{EXPLORATION} concave_bandit smooth_wc"
+    _fails(
+        root,
+        rf"{w} points \[5, 0\]: states",
+        rf"{w} theta_error \[5\]: states",
+        rf"{w} hypervolume: states",
+        rf"{w} largest_theta_gap: states 0.229\d*, its data give 0.32",
+        r"docs/results.md table exploration_bandit row 0 'largest gap in θ \(rad\)': "
+        r"prints '0.229'",
+        r"README.md table glance row \d+ 'what the front achieves': prints '9 distinct points .*"
+        r"largest gap 0.229 rad",
+    )
+
+
+def test_plant_a_treasure_point_and_a_printed_ratio_changed(tmp_path):
+    """Deep Sea Treasure: a point of `smooth_wc` that lies on the front moved 3 along the
+    time objective (7 of 11 points within 1 of the front become 6), and the docs' table
+    printing `wc`'s hypervolume ratio 0.651 for 0.641."""
+    root = _copy(tmp_path)
+    with open(os.path.join(ROOT, EXPLORATION)) as f:
+        stated = json.load(f)["problems"]["deep_sea_treasure"]["directions"]["smooth_wc"]
+    i = int(np.argmin(stated["distance_to_front"]))
+
+    def change(d):
+        d["problems"]["deep_sea_treasure"]["directions"]["smooth_wc"]["points"][i][1] -= 3.0
+
+    _edit_json(root, EXPLORATION, change)
+    _edit_text(root, "docs/results.md", "| 6 of 11 | 0.641 |", "| 6 of 11 | 0.651 |")
+    w = f"{EXPLORATION} deep_sea_treasure smooth_wc"
+    _fails(
+        root,
+        rf"{w} distance_to_front \[{i}\]: states",
+        rf"{w} points_near_front: states 7, its data give 6",
+        r"docs/results.md table exploration_dst row 0 'on the front \(within 1\)': "
+        r"prints '7 of 11'",
+        r"README.md table glance row \d+ 'what the front achieves': prints '7 of 11 points",
+        r"docs/results.md table exploration_dst row 1 'HV / exact front's HV': prints '0.651'",
+    )
+
+
+def test_plant_a_convergence_gap_changed(tmp_path):
+    """The tabular MOMDP's last measured gap of the default setting's first preference
+    (its worst ratio, 0.13% of the initial gap) doubled: the final gap, its ratio and the
+    slope that convergence.json states no longer follow, nor the docs' table and the
+    README's glance."""
+    root = _copy(tmp_path)
+    conv = f"{R}/convergence/convergence.json"
+
+    def change(d):
+        d["results"][0]["prefs"][0]["gap"][-1] *= 2.0
+
+    _edit_json(root, conv, change)
+    w = rf"{conv} alpha/\(t\+1\), mu=0.1 pref \[0.2, 0.8\]"
+    _fails(
+        root,
+        rf"{w} final_gap: states",
+        rf"{w} final_over_initial: states",
+        rf"{w} slope: states",
+        r"docs/results.md table convergence row 0 'final gap / initial gap \(worst of 3\)': "
+        r"prints '0.13%'",
+        r"README.md table glance row \d+ 'what the front achieves': prints .*0.13%",
+    )
+
+
+def _lengths_and_count(rel: str) -> tuple[float, int, int]:
+    """A conditioned network's committed front: its summed mean lengths, its episodes per
+    preference and its evaluation env steps as counted (the episodes times the summed
+    mean lengths, and times each candidate's where it chose among its last policies)."""
+    with open(os.path.join(ROOT, rel)) as f:
+        d = json.load(f)
+    total, e = sum(r["episode_length"] for r in d["prefs"]), d["config"].get("eval_episodes", 8)
+    chosen = d.get("selection", {}).get("candidate_length")
+    extra = round(e * float(np.sum(chosen))) if chosen is not None else 0
+    return total, e, round(e * total) + extra
+
+
+def test_plant_evaluation_steps_short_where_no_list_allows_it(tmp_path, monkeypatch):
+    """Evaluation env steps short of the count are accepted only on the fronts
+    `EARLIER_EVAL_STEPS` lists, by exactly the steps listed. Planted: the conditioned
+    network's seed-0 front (and its summary) stating the count as the earlier code
+    would have truncated it (8 x the whole part of its summed mean lengths); a field
+    front of the ablation (its summed mean lengths a hair above a whole number) one step
+    per episode short; hopper-2obj's seed-0 front, listed 1 short, stating the full
+    count; and a listed shortfall the truncation does not give."""
+    root = _copy(tmp_path)
+    total, e, count = _lengths_and_count(COND)
+    truncated = e * math.floor(total)
+    assert 0 < count - truncated < e  # what the previous audit accepted here
+    _edit_json(root, COND, lambda d: d["conditioned"].update(eval_env_steps=truncated))
+    summary = f"{R}/conditioned_walker2d/summary.json"
+    _edit_json(
+        root, summary, lambda d: d["runs"]["conditioned"]["0"].update(eval_env_steps=truncated)
+    )
+    sel3 = f"{FIELD}/ablation/cmorl/hopper-2obj/e10m32-sel3/seed1/front.json"
+    _, e3, count3 = _lengths_and_count(sel3)
+
+    def short(d):
+        d["conditioned"]["eval_env_steps"] = count3 - e3
+        d["protocol"]["eval_env_steps"] = count3 - e3
+
+    _edit_json(root, sel3, short)
+    listed = FIELD_FRONT
+    assert audit.EARLIER_EVAL_STEPS[listed] == 1
+    _, _, full = _lengths_and_count(listed)
+    _edit_json(root, listed, lambda d: d["conditioned"].update(eval_env_steps=full))
+    wrong = f"{FIELD}/cmorl/walker2d/seed0/front.json"
+    monkeypatch.setitem(audit.EARLIER_EVAL_STEPS, wrong, audit.EARLIER_EVAL_STEPS[wrong] + 2)
+    _fails(
+        root,
+        rf"{COND} eval_env_steps: states {truncated}, its data give {count}$",
+        rf"conditioned_walker2d/summary.json conditioned seed 0 eval_env_steps: states {truncated}",
+        rf"{sel3} eval_env_steps: states {count3 - e3}, its data give {count3}$",
+        rf"{sel3} protocol eval_env_steps: states {count3 - e3}, its data give {count3}$",
+        rf"{listed} eval_env_steps: states {full}, its data give {full - 1}$",
+        rf"EARLIER_EVAL_STEPS {wrong}: lists 5 steps short of \d+, the earlier code's "
+        r"truncation gives \[3\]",
+    )

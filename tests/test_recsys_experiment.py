@@ -4,6 +4,7 @@ import dataclasses
 import json
 import math
 import os
+import shutil
 import sys
 import time
 from pathlib import Path
@@ -83,6 +84,36 @@ def test_table_is_what_the_per_seed_values_give(run):
     assert list(values["data_sets"][0]) == ["name", *METHODS]
     assert np.shape(values["data_sets"][0]["Oracle"]["truth"]) == (1, 7)  # one policy
     assert audit.check_kuairand(audit.Repo(root), base) == []
+
+
+def _raised(values: list) -> None:
+    values[0] += 0.05
+
+
+def test_a_per_seed_value_changed_is_caught(run, tmp_path):
+    """The check above is not vacuous: in a copy of the run, the first training seed's
+    true unified value of Algorithm 1 0.05 higher fails its point estimate, its gap share
+    and the interval over data sets; its two training seeds' true unified values
+    exchanged (every mean stays) fail that interval alone."""
+    import audit
+
+    _, out = run
+    base = os.path.join("results", "table2")
+    for name, change in (("raised", _raised), ("exchanged", list.reverse)):
+        root = str(tmp_path / name)
+        shutil.copytree(out, os.path.join(root, base))
+        path = os.path.join(root, base, "per_seed.json")
+        values = json.load(open(path))
+        change(values["data_sets"][0]["wcac (Algorithm 1)"]["unified_truth"])
+        json.dump(values, open(path, "w"))
+        findings = audit.check_kuairand(audit.Repo(root), base)
+        interval = [f for f in findings if "wcac (Algorithm 1) gap share interval over" in f]
+        assert interval, (name, findings)
+        if name == "raised":
+            for key in ("unified_truth:", "gap_share:"):
+                assert any(f"wcac (Algorithm 1) {key}" in f for f in findings), (key, findings)
+        else:
+            assert findings == interval, findings
 
 
 def test_the_oracle_is_best_on_the_unified_objective(run):

@@ -180,13 +180,14 @@ def test_biases_are_the_roots_of_the_calibration_on_the_protocol_rows(generated,
         assert abs(root - model.bias[j]) < 1e-6, (j, root, model.bias[j])
 
 
-def test_expected_rates_hold_on_rows_the_calibration_did_not_see(generated):
-    """Calibration carries over: the biases were set on part1's rows of its 150 most
-    viewed videos; on part2's rows of those videos (drawn by the same logged policy, each
-    in its session's context, rebuilt here from the files' times) the model's expected
-    rates are the targets within Z standard errors of a mean over rows clustered by user
-    (measured on generator seeds 3, 4 and 5: at most 1.1 of them)."""
-    out, model = generated
+def _unseen_rates_z(out: str, model) -> np.ndarray:
+    """`[7]` how far the model's expected rates on part2's rows of part1's 150 most viewed
+    videos (rows the calibration did not see: other sessions of the same users, drawn by
+    the same logged policy, each in its session's context, rebuilt here from the files'
+    times) lie from the targets, in standard errors of their difference from the
+    calibration rows' mean: sessions are the independent draws (a session's rows share
+    its user and its context), so the standard error of a mean over sessions, widened by
+    the calibration rows' own (`sqrt(1 + n / n_calibration)`)."""
     part1, part2 = (pd.read_csv(os.path.join(out, f)) for f in synth.FILES["standard"])
     counts = part1["video_id"].value_counts()
     top = sorted(counts.index, key=lambda v: (-counts[v], v))[: synth.CANDIDATES]
@@ -199,16 +200,45 @@ def test_expected_rates_hold_on_rows_the_calibration_did_not_see(generated):
         ctx[pos >= k, k - 1] = video[np.flatnonzero(pos >= k) - k]
     first = log["part"].to_numpy() == 1  # the rebuilt contexts are the model's own there
     np.testing.assert_array_equal(ctx[first], model.logged_context(log.index[first]))
-    unseen = (log["part"].to_numpy() == 2) & log["video_id"].isin(top).to_numpy()
-    users = log["user_id"].to_numpy()[unseen]
-    e = model.expected(users, video[unseen], ctx[unseen])
-    n = len(e)
-    per_user = pd.DataFrame(e - e.mean(axis=0)).groupby(users).sum().to_numpy()
-    se = np.sqrt((per_user**2).sum(axis=0)) / n
+    shown = log["video_id"].isin(top).to_numpy()
+    unseen = ~first & shown
+    e = model.expected(log["user_id"].to_numpy()[unseen], video[unseen], ctx[unseen])
+    n, calibration = len(e), int((first & shown).sum())
+    assert n > 1000
+    session = np.cumsum(pos == 0)[unseen]
+    per_session = pd.DataFrame(e - e.mean(axis=0)).groupby(session).sum().to_numpy()
+    se = np.sqrt((per_session**2).sum(axis=0)) / n * np.sqrt(1 + n / calibration)
     targets = np.array([*synth.TARGET_RATES.values(), synth.TARGET_PLAY_TIME_MS / 1e4])
-    assert n > 1000 and (np.abs(e.mean(axis=0) - targets) <= Z * se).all(), (
-        e.mean(axis=0) - targets
-    ) / se
+    return (e.mean(axis=0) - targets) / se
+
+
+def test_expected_rates_hold_on_rows_the_calibration_did_not_see(generated):
+    """Calibration carries over: the biases were set on part1's rows of its 150 most
+    viewed videos; on part2's rows of those videos the model's expected rates are the
+    targets within Z standard errors (`_unseen_rates_z`). Measured on generator seeds 3
+    to 10: at most 1.6 of them (click, above the target: part2's sessions run shorter,
+    so fewer of its rows carry fatigue)."""
+    out, model = generated
+    z = _unseen_rates_z(out, model)
+    assert (np.abs(z) <= Z).all(), z
+
+
+def test_a_calibration_blind_to_the_session_fails_on_the_unseen_rows(tmp_path, monkeypatch):
+    """The check above sees a calibration that ignores the context: with the biases fit
+    as if every calibration row opened its session (no earlier views: no fatigue, no
+    satiation), the unseen rows' expected click rate falls more than Z standard errors
+    below its target (measured on seeds 3, 4 and 5: 6.9 to 9.5 of them), though the
+    response model, the logs and their contexts are as before."""
+    calibrate = synth._calibrate
+
+    def blind(model, ui, vi, ci):
+        return calibrate(model, ui, vi, np.full_like(ci, -1))
+
+    monkeypatch.setattr(synth, "_calibrate", blind)
+    out = str(tmp_path)
+    model = synth.write(CFG, out)
+    z = _unseen_rates_z(out, model)
+    assert z[0] < -Z, z
 
 
 def test_realised_rates_within_binomial_error_of_the_targets(generated):
