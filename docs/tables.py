@@ -1328,8 +1328,8 @@ def t_field(doc: Doc, short: bool = False) -> str:
                 ratio,
                 _mo_gymnasium(r),
                 num(r["seeds"][0]["env_steps_trained"]),
-                num(r["seeds"][0]["eval_env_steps"]),
-                f"{num(min(walls))}–{num(max(walls))}" if len(walls) > 1 else num(walls[0]),
+                _span([s["eval_env_steps"] for s in r["seeds"]]),
+                _span(walls),
             ]
         )
     if short:  # one row per protocol
@@ -1342,6 +1342,12 @@ def t_field(doc: Doc, short: bool = False) -> str:
     head += ["best published", "ratio [95%]", "in MO-Gymnasium: HV, ratio"]
     head += ["env steps trained", "eval env steps", "wall s per seed"]
     return md(head, rows, "llllrrrrrrrr")
+
+
+def _span(values: list) -> str:
+    """`lo–hi` over the seeds, or the one seed's value."""
+    lo, hi = min(values), max(values)
+    return num(lo) if lo == hi else f"{num(lo)}–{num(hi)}"
 
 
 def _mo_gymnasium(r: dict) -> str:

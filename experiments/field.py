@@ -437,8 +437,9 @@ def write_table(summary: dict, results: str) -> None:
                 else "| — "
             )
             + f"| {r['seeds'][0]['env_steps_trained']:,} "
-            + f"| {r['seeds'][0]['eval_env_steps']:,} "
             + "| "
+            + ", ".join(f"{s['eval_env_steps']:,}" for s in r["seeds"])
+            + " | "
             + ", ".join(f"{s['wall_s']:.0f}" for s in r["seeds"])
             + " |"
         )

@@ -1420,7 +1420,7 @@ def check_field_table_md(repo: Repo, rel: str) -> Findings:
             else [best["method"], best["hv"]],
             "ratio [95%]": ["—"] if best is None else list(row["ratio"]),
             "env steps trained": [first.data["env_steps_total"]],
-            "eval env steps": [eval_steps(first)],
+            "eval env steps": [eval_steps(f) for f in row["fronts"]],
             "wall s per seed": [f.data["wall_s"] for f in row["fronts"]],
         }
         hv_mo_gymnasium = row["hv_mo_gymnasium"]
@@ -3102,8 +3102,8 @@ def field_wants(t: Table, repo: Repo) -> Iterator:
     recomputed from its fronts, the MO-Gymnasium evaluations beside them and the
     published entries: the seeds, the HV's mean (its interval over more than one seed),
     PGMORL's published HV, the best published one and the ratio to it, the evaluations'
-    mean HV and its ratio, the first seed's env steps trained and evaluated, and the
-    seconds per seed (their range over more than one)."""
+    mean HV and its ratio, the first seed's env steps trained, and the env steps
+    evaluated and seconds per seed (their range over more than one)."""
     rows, printed = field_table_rows(repo), []
     for i, cells in enumerate(t.rows):
         key = (cells[t.column("protocol")], cells[t.column("task")].strip("`"))
@@ -3136,8 +3136,9 @@ def field_wants(t: Table, repo: Repo) -> Iterator:
             ["–"] if mg is None else [mg[0], *([] if mg_ratio is None else [mg_ratio[0]])],
         )
         yield i, "env steps trained", [first.data["env_steps_total"]]
-        yield i, "eval env steps", [eval_steps(first)]
-        yield i, "wall s per seed", [min(walls), max(walls)] if n > 1 else walls
+        steps = [eval_steps(f) for f in row["fronts"]]
+        yield i, "eval env steps", sorted({min(steps), max(steps)})
+        yield i, "wall s per seed", sorted({min(walls), max(walls)})
     for key in rows:
         if printed.count(key) != 1:
             yield f"{' '.join(key)} has fronts: printed in {printed.count(key)} rows, not one"
