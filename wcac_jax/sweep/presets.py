@@ -341,39 +341,28 @@ class ProtocolPreset:
 # to theirs, so it takes the ants' preset.
 MORE_UPDATES = ConditionedConfig(num_epochs=10, num_minibatches=32)
 SMALL_NOISE = ConditionedConfig(num_minibatches=32, log_std_init=-1.0)
-_MORE_UPDATES_NOTE = "10 epochs of 32 minibatches (the defaults: 5 of 16)"
-_SMALL_NOISE_NOTE = "32 minibatches and initial log-std -1 (the defaults: 16 and 0)"
-_FAMILIES = {
-    "hopper": (MORE_UPDATES, _MORE_UPDATES_NOTE),
-    "walker2d": (MORE_UPDATES, _MORE_UPDATES_NOTE),
-    "swimmer": (MORE_UPDATES, _MORE_UPDATES_NOTE),
-    "ant": (SMALL_NOISE, _SMALL_NOISE_NOTE),
-    "halfcheetah": (SMALL_NOISE, _SMALL_NOISE_NOTE),
-}
-_TASK_FAMILY = {
-    "hopper-2obj": "hopper",
-    "hopper": "hopper",
-    "hopper-pgmorl": "hopper",
-    "walker2d": "walker2d",
-    "walker2d-pgmorl": "walker2d",
-    "swimmer": "swimmer",
-    "swimmer-pgmorl": "swimmer",
-    "ant-2obj": "ant",
-    "ant": "ant",
-    "ant-pgmorl": "ant",
-    "ant3-cola": "ant",
-    "hopper3-pgmorl": "ant",
-    "halfcheetah": "halfcheetah",
-    "halfcheetah-pgmorl": "halfcheetah",
-    "halfcheetah-cola": "halfcheetah",
+_MORE_UPDATES = ProtocolPreset(
+    MORE_UPDATES, note="10 epochs of 32 minibatches (the defaults: 5 of 16)"
+)
+_SMALL_NOISE = ProtocolPreset(
+    SMALL_NOISE, note="32 minibatches and initial log-std -1 (the defaults: 16 and 0)"
+)
+_TASK_PRESETS = {
+    **dict.fromkeys(
+        ("hopper-2obj", "hopper", "hopper-pgmorl", "walker2d", "walker2d-pgmorl"),
+        _MORE_UPDATES,
+    ),
+    **dict.fromkeys(("swimmer", "swimmer-pgmorl"), _MORE_UPDATES),
+    **dict.fromkeys(("ant-2obj", "ant", "ant-pgmorl", "ant3-cola", "hopper3-pgmorl"), _SMALL_NOISE),
+    **dict.fromkeys(("halfcheetah", "halfcheetah-pgmorl", "halfcheetah-cola"), _SMALL_NOISE),
 }
 
 # Each protocol's preset per task; a task without an entry (the humanoids) trains
 # `ProtocolPreset()`'s defaults (the conditioned update's own, the final network).
 PROTOCOL_PRESETS: dict[tuple[str, str], ProtocolPreset] = {
-    (protocol, task): ProtocolPreset(_FAMILIES[family][0], note=_FAMILIES[family][1])
+    (protocol, task): preset
     for protocol in ("cmorl", "pgmorl")
-    for task, family in _TASK_FAMILY.items()
+    for task, preset in _TASK_PRESETS.items()
 }
 
 
