@@ -144,11 +144,11 @@ def test_protocol_scores_by_hand():
 
 def test_known_answers_by_hand():
     """The problems with known answers: the bandit's optimum at equal weights is the
-    middle of the front, at `[1, 0]` its end; Deep Sea Treasure's front is the
-    upper-right hull of its shortest paths (neither a point below the chord between two
-    others nor the hull's lower-left side); the weighted-Chebyshev optimum on a segment
-    is where the weighted terms cross; a distance to the front and a position along it;
-    distinct points; and the log-log slope of `1 / t`."""
+    middle of the front, at `[1, 0]` its end, and its front's hypervolume; Deep Sea
+    Treasure's front is the upper-right hull of its shortest paths (neither a point below
+    the chord between two others nor the hull's lower-left side); the weighted-Chebyshev
+    optimum on a segment is where the weighted terms cross; a distance to the front and a
+    position along it; distinct points; and the log-log slope of `1 / t`."""
     z = (1.1, 1.1)
     assert audit.bandit_wc_theta((0.5, 0.5), z) == pytest.approx(math.pi / 4, abs=1e-12)
     assert audit.bandit_wc_theta((1.0, 0.0), z) == 0.0
@@ -156,6 +156,11 @@ def test_known_answers_by_hand():
     np.testing.assert_allclose(
         audit.bandit_reward([0.0, math.pi / 2]), [[1, 0], [0, 1]], atol=1e-15
     )
+    # the area the bandit's front dominates above (0, 0): the unit square less the quarter
+    # disc of radius 1 around (1, 1); a lower reference adds the strips below and left of it
+    assert audit.bandit_front_hv((0.0, 0.0)) == pytest.approx(1 - math.pi / 4, abs=1e-10)
+    below = 1 - math.pi / 4 + 0.25 * 1.0 + 0.5 * 1.25
+    assert audit.bandit_front_hv((-0.5, -0.25)) == pytest.approx(below, abs=1e-10)
     # the shortest path to the first treasure: one step down, treasure 1 and time -1
     np.testing.assert_allclose(audit.dst_paths(0.99)[0], [1.0, -1.0])
     np.testing.assert_allclose(audit.dst_paths(0.5)[-1], [124 * 0.5**18, -(1 - 0.5**19) / 0.5])

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from brax.envs.base import Env, State
 
-from wcac_jax import envs, scalarize
+from wcac_jax import envs, pareto, scalarize
 from wcac_jax.core.episodes import EpisodeWrapper
 from wcac_jax.envs import concave_bandit as cb
 
@@ -74,6 +74,20 @@ def test_wc_optimum_solves_the_balance_equation():
     assert float(cb.wc_optimum(jnp.array([0.0, 1.0]))) == pytest.approx(math.pi / 2, abs=1e-6)
     front = cb.exact_front(11)
     assert front.shape == (11, 2) and np.all(np.diff(front[:, 0]) < 0)
+
+
+def test_concave_bandit_exact_front_hypervolume():
+    """`1 - pi/4` (by hand: the unit square less the quarter disc of radius 1 around
+    `(1, 1)`), which the staircases of ever finer sampled fronts approach from below, short
+    of it by the staircase's `pi / (8 (n - 1))`."""
+    exact = cb.exact_front_hypervolume()
+    assert exact == pytest.approx(0.21460183660255172, abs=1e-15)
+    shortfalls = []
+    for n in (2001, 20001):
+        sampled = pareto.hypervolume(cb.exact_front(n), (0.0, 0.0))
+        shortfalls.append(exact - sampled)
+        assert 0.0 < exact - sampled == pytest.approx(math.pi / (8 * (n - 1)), rel=1e-3)
+    assert shortfalls[1] < 2e-5 and shortfalls[1] < shortfalls[0] / 9
 
 
 class _Counter(Env):

@@ -174,6 +174,8 @@ def test_pareto_exploration_quick_writes_its_schema(tmp_path):
     # bandit's reward (1 - sin, 1 - cos) of the saved angles)
     from pymoo.indicators.hv import HV
 
+    # the front's, in closed form: the unit square less the quarter disc around (1, 1)
+    assert bandit["exact_front_hypervolume"] == pytest.approx(1 - np.pi / 4, rel=1e-12)
     for summary in bandit["directions"].values():
         theta, points = np.array(summary["theta"]), np.array(summary["points"])
         # (the reward is float32)

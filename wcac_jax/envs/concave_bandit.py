@@ -12,6 +12,8 @@ p_2 (z_2 - 1 + cos theta)` (`wc_optimum`).
 
 from __future__ import annotations
 
+import math
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -41,6 +43,22 @@ def reward(theta):
 def exact_front(n: int = 201) -> np.ndarray:
     """`[n, 2]` points of the exact Pareto front, from `theta = 0` to `pi/2`."""
     return np.asarray(reward(jnp.linspace(0.0, jnp.pi / 2, n)))
+
+
+def exact_front_hypervolume() -> float:
+    """The hypervolume of the exact front with reference point `(0, 0)`: `1 - pi/4`.
+
+    The front `(x, y) = (1 - sin t, 1 - cos t)`, `t in [0, pi/2]`, is the quarter of the
+    unit circle centred on `(1, 1)` nearest the origin: `(1 - x)^2 + (1 - y)^2 = 1`, running
+    from `(1, 0)` to `(0, 1)` with `y` decreasing in `x`. The region it dominates above
+    `(0, 0)` is therefore the area under it, `y = 1 - sqrt(1 - (1 - x)^2)` on `[0, 1]`:
+    the unit square less the quarter disc of radius 1 around `(1, 1)`, so
+    `int_0^1 y dx = 1 - int_0^1 sqrt(1 - s^2) ds = 1 - pi/4` (about 0.2146).
+
+    A front sampled at `n` evenly spaced angles dominates a staircase under this area,
+    short of it by about `pi / (8 (n - 1))` (0.09% of it at `n = 2001`).
+    """
+    return 1.0 - math.pi / 4.0
 
 
 def wc_optimum(pref, j_ub=DEFAULT_J_UB):
