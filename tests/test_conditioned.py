@@ -104,6 +104,31 @@ def test_preference_conditioned_env_appends_and_keeps_the_preference():
     assert float(jnp.min(drawn)) >= 0.0
 
 
+@pytest.mark.parametrize(
+    "alpha, variance, below_tenth",
+    # each of two components is Beta(alpha, alpha): variance 1 / (4 (2 alpha + 1));
+    # P(p_1 < 0.1) is 0.1 when uniform and (2 / pi) asin(sqrt(0.1)) = 0.2048 at 0.5
+    [(1.0, 1 / 12, 0.1), (0.5, 1 / 8, 0.2048)],
+)
+def test_dirichlet_preference_concentration_by_hand(alpha, variance, below_tenth):
+    """A concentration below 1 draws preferences toward the simplex's corners (the
+    front's ends), with the Beta marginals' moments."""
+    n = 40_000
+    drawn = jax.vmap(conditioned.dirichlet_preference(2, alpha))(
+        jax.random.split(jax.random.key(2), n)
+    )
+    p1 = np.asarray(drawn[:, 0], np.float64)
+    np.testing.assert_allclose(np.asarray(jnp.sum(drawn, axis=1)), 1.0, atol=1e-6)
+    # within 5 standard errors: the variance estimate's is variance * sqrt((k - 1) / n),
+    # Beta(alpha, alpha)'s kurtosis k = 3 - 6 / (2 alpha + 3); the frequency's
+    # sqrt(q (1 - q) / n)
+    kurtosis = 3.0 - 6.0 / (2.0 * alpha + 3.0)
+    assert abs(p1.mean() - 0.5) < 5 * np.sqrt(variance / n)
+    assert abs(p1.var() - variance) < 5 * variance * np.sqrt((kurtosis - 1.0) / n)
+    q = np.mean(p1 < 0.1)
+    assert abs(q - below_tenth) < 5 * np.sqrt(below_tenth * (1 - below_tenth) / n)
+
+
 # a fixed small policy noise (a stochastic policy's front on the bandit is the convex
 # hull: the ends), a sharp mu for its values in [0, 1], the fixed utopia point
 BANDIT = conditioned.ConditionedConfig(
@@ -124,18 +149,20 @@ BANDIT = conditioned.ConditionedConfig(
 BANDIT_PREFS = np.array([[0.6, 0.4], [0.5, 0.5], [0.4, 0.6]], np.float32)
 
 
-@pytest.fixture(scope="module")
-def bandit_front():
-    """One network trained on the concave bandit, evaluated at `BANDIT_PREFS`:
-    `[3, 2]` returns."""
+@pytest.fixture(scope="module", params=[1.0, 0.5], ids=["uniform", "dirichlet0.5"])
+def bandit_front(request):
+    """One network trained on the concave bandit, its preferences drawn uniformly and
+    toward the simplex's corners (Dirichlet(0.5), PGMORL's walker's and COLA's
+    half-cheetah's draw), evaluated at `BANDIT_PREFS`: `[3, 2]` returns."""
+    config = BANDIT.replace(pref_alpha=request.param)
     env = envs.make("concave_bandit")
-    trainer = algos.make_trainer(BANDIT, env)
-    evaluate_at = conditioned.make_evaluate_at(BANDIT, env, 1, trainer)
+    trainer = algos.make_trainer(config, env)
+    evaluate_at = conditioned.make_evaluate_at(config, env, 1, trainer)
 
     @jax.jit
     def program(key, prefs):
         pref = jnp.full((2,), 0.5)
-        state, _ = trainer.run(trainer.init(key, pref), pref, BANDIT.num_iterations)
+        state, _ = trainer.run(trainer.init(key, pref), pref, config.num_iterations)
         return jax.vmap(evaluate_at, in_axes=(None, None, 0))(state, key, prefs)
 
     return np.asarray(program(jax.random.key(0), jnp.asarray(BANDIT_PREFS))["eval/return"])
