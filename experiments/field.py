@@ -80,7 +80,6 @@ VARIANTS: dict[str, dict] = {
     "m32-logstd-1-sel3": {"num_minibatches": 32, "log_std_init": -1.0, "select": (3, 81_920)},
     "m32-logstd-1-sel2": {"num_minibatches": 32, "log_std_init": -1.0, "select": (2, 81_920)},
     "e10m32-g995": {"num_epochs": 10, "num_minibatches": 32, "gamma": 0.995},
-    "m32-logstd-1-g995": {"num_minibatches": 32, "log_std_init": -1.0, "gamma": 0.995},
     "e10m32-logstd-1-alpha0.5": {
         "num_epochs": 10,
         "num_minibatches": 32,
