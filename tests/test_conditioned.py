@@ -107,8 +107,11 @@ def test_preference_conditioned_env_appends_and_keeps_the_preference():
 @pytest.mark.parametrize(
     "alpha, variance, below_tenth",
     # each of two components is Beta(alpha, alpha): variance 1 / (4 (2 alpha + 1));
-    # P(p_1 < 0.1) is 0.1 when uniform and (2 / pi) asin(sqrt(0.1)) = 0.2048 at 0.5
-    [(1.0, 1 / 12, 0.1), (0.5, 1 / 8, 0.2048)],
+    # P(p_1 < 0.1) is 0.1 when uniform, (2 / pi) asin(sqrt(0.1)) = 0.2048 at 0.5, and at
+    # 0.05 the regularised incomplete beta I_0.1(0.05, 0.05) = 0.4495 (t = u^20 turns
+    # its integral into a smooth one: 20 int_0^(0.1^0.05) (1 - u^20)^(-0.95) du over
+    # Gamma(0.05)^2 / Gamma(0.1))
+    [(1.0, 1 / 12, 0.1), (0.5, 1 / 8, 0.2048), (0.05, 1 / 4.4, 0.4495)],
 )
 def test_dirichlet_preference_concentration_by_hand(alpha, variance, below_tenth):
     """A concentration below 1 draws preferences toward the simplex's corners (the
@@ -149,11 +152,14 @@ BANDIT = conditioned.ConditionedConfig(
 BANDIT_PREFS = np.array([[0.6, 0.4], [0.5, 0.5], [0.4, 0.6]], np.float32)
 
 
-@pytest.fixture(scope="module", params=[1.0, 0.5], ids=["uniform", "dirichlet0.5"])
+@pytest.fixture(
+    scope="module", params=[1.0, 0.5, 0.05], ids=["uniform", "dirichlet0.5", "dirichlet0.05"]
+)
 def bandit_front(request):
     """One network trained on the concave bandit, its preferences drawn uniformly and
-    toward the simplex's corners (Dirichlet(0.5), PGMORL's walker's and COLA's
-    half-cheetah's draw), evaluated at `BANDIT_PREFS`: `[3, 2]` returns."""
+    toward the simplex's corners (Dirichlet(0.5), PGMORL's walker's draw; Dirichlet(0.05),
+    COLA's half-cheetah's, 4 in 5 within 0.01 of an end), evaluated at `BANDIT_PREFS`:
+    `[3, 2]` returns."""
     config = BANDIT.replace(pref_alpha=request.param)
     env = envs.make("concave_bandit")
     trainer = algos.make_trainer(config, env)
