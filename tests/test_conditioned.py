@@ -153,14 +153,18 @@ BANDIT_PREFS = np.array([[0.6, 0.4], [0.5, 0.5], [0.4, 0.6]], np.float32)
 
 
 @pytest.fixture(
-    scope="module", params=[1.0, 0.5, 0.05], ids=["uniform", "dirichlet0.5", "dirichlet0.05"]
+    scope="module",
+    params=[(1.0, False), (0.5, False), (0.05, False), (1.0, True)],
+    ids=["uniform", "dirichlet0.5", "dirichlet0.05", "log-std-by-pref"],
 )
 def bandit_front(request):
     """One network trained on the concave bandit, its preferences drawn uniformly and
     toward the simplex's corners (Dirichlet(0.5), PGMORL's walker's draw; Dirichlet(0.05),
-    COLA's half-cheetah's, 4 in 5 within 0.01 of an end), evaluated at `BANDIT_PREFS`:
-    `[3, 2]` returns."""
-    config = BANDIT.replace(pref_alpha=request.param)
+    COLA's half-cheetah's, 4 in 5 within 0.01 of an end), and with the policy's log-std a
+    function of the preference (`log_std_by_pref`), evaluated at `BANDIT_PREFS`: `[3, 2]`
+    returns."""
+    alpha, by_pref = request.param
+    config = BANDIT.replace(pref_alpha=alpha, log_std_by_pref=by_pref)
     env = envs.make("concave_bandit")
     trainer = algos.make_trainer(config, env)
     evaluate_at = conditioned.make_evaluate_at(config, env, 1, trainer)

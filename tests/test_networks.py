@@ -150,6 +150,28 @@ def test_gaussian_policy_log_prob_and_parameters():
     assert float(lp) == pytest.approx(-2.0 - math.log(0.5) - 0.5 * math.log(2 * math.pi), rel=1e-6)
 
 
+def test_gaussian_policy_log_std_by_preference_by_hand():
+    """With `pref_size = m` the log-std is `p @ L`: each vertex's own row of `L`, linear
+    between them, the same for every preference at first."""
+    net = networks.paper_network(4, 2, 4, 1)
+    policy = networks.gaussian_policy(net, 2, log_std_init=-1.0, pref_size=2)
+    params = policy.init(jax.random.key(0))
+    assert params.trainable["log_std"].shape == (2, 2)
+    obs = jnp.array([[0.3, -0.2, 1.0, 0.0], [0.3, -0.2, 0.25, 0.75]])
+    _, log_std = policy.apply(params, obs)
+    np.testing.assert_array_equal(log_std, jnp.full((2, 2), -1.0))
+    rows = jnp.array([[-1.0, -2.0], [0.0, 1.0]])
+    trained = NetParams({**params.trainable, "log_std": rows}, params.fixed)
+    mean, log_std = policy.apply(trained, obs)
+    # p = (1, 0): L's first row; p = (1/4, 3/4): (-1/4 + 0, -2/4 + 3/4)
+    np.testing.assert_allclose(log_std, [[-1.0, -2.0], [-0.25, 0.25]], rtol=1e-6)
+    # one entropy per input: sum_d log_std_d + log(2 pi e) (two dimensions)
+    c = math.log(2 * math.pi * math.e)
+    np.testing.assert_allclose(policy.entropy((mean, log_std)), [-3.0 + c, 0.0 + c], rtol=1e-6)
+    lp = policy.log_prob((mean, log_std), mean)
+    np.testing.assert_allclose(lp, [3.0 - math.log(2 * math.pi), -math.log(2 * math.pi)], rtol=1e-6)
+
+
 def test_categorical_policy_by_hand():
     net = networks.paper_network(2, 3, 4, 1)
     policy = networks.categorical_policy(net)

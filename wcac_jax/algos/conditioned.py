@@ -22,6 +22,10 @@ none. Per iteration, as the practical update does for one preference
 4. epochs of minibatches on the clipped surrogate (per-minibatch normalised advantages)
    plus the critic's regression (`losses.ppo_loss`, `losses.minibatch_epochs`).
 
+The policy's exploration noise is one learned log-std for every preference, or with
+`log_std_by_pref` one per vertex of the simplex, `log_std(p) = p @ L`
+(`networks.gaussian_policy`), so that the front's ends can keep different noise.
+
 The state is the practical update's (`PracticalState`), the `Trainer` the shared one:
 its `pref` argument is ignored (each environment draws its own), so a sweep trains it as
 ONE row. `make_evaluate_at` runs the one network at a given preference.
@@ -57,6 +61,11 @@ class ConditionedConfig(PracticalConfig):
     # convex hull of the deterministic one)
     learn_log_std: bool = field(True, "whether the policy's log-std is trained")
     pref_alpha: float = field(1.0, "Dirichlet concentration of the preferences drawn", positive)
+    log_std_by_pref: bool = field(
+        False,
+        "whether the policy's log-std depends on the preference (one per vertex of the "
+        "simplex, interpolated linearly) instead of being one for every preference",
+    )
     conditioning: str = field(
         "concat",
         "how the networks take the preference: 'concat' (appended to the observation) or "
@@ -269,6 +278,7 @@ def make_trainer(
         lambda out: factory(obs_size, out, role="actor"),
         config.log_std_init,
         config.learn_log_std,
+        m if config.log_std_by_pref else 0,
     )
     value_net = factory(obs_size, m, role="critic")
     preprocess = make_preprocess(config, raw_size)

@@ -363,9 +363,15 @@ def gaussian_policy(
     log_std_init: float,
     learn_log_std: bool = True,
     action_bound: float | tuple[float, ...] = 1.0,
+    pref_size: int = 0,
 ) -> Policy:
     """A diagonal Gaussian with the network's `action_size` outputs as mean and a
     state-independent log-std; `dist = (mean [..., act], log_std [act])`.
+
+    With `pref_size = m > 0` the inputs' last `m` entries are a preference `p` on the
+    simplex and the log-std depends on it alone: `log_std(p) = p @ L`, with `L` `[m, act]`
+    one log-std per vertex (all `log_std_init` at first, so every preference starts with
+    the same noise), and `dist = (mean [..., act], log_std [..., act])`.
 
     The policy acts in `[-1, 1]^act`; `to_env` clips there and scales by `action_bound`,
     the half-width of the environment's own action box (humanoid's is 0.4; a tuple gives
@@ -378,7 +384,8 @@ def gaussian_policy(
 
     def init(key: chex.PRNGKey) -> NetParams:
         net = network.init(key)
-        log_std = jnp.full((action_size,), log_std_init, dtype=jnp.float32)
+        shape = (pref_size, action_size) if pref_size else (action_size,)
+        log_std = jnp.full(shape, log_std_init, dtype=jnp.float32)
         if learn_log_std:
             return NetParams({"net": net.trainable, "log_std": log_std}, {"net": net.fixed})
         return NetParams({"net": net.trainable}, {"net": net.fixed, "log_std": log_std})
@@ -388,12 +395,14 @@ def gaussian_policy(
 
     def apply(params: NetParams, obs: chex.Array) -> tuple[chex.Array, chex.Array]:
         log_std = params.trainable["log_std"] if learn_log_std else params.fixed["log_std"]
+        if pref_size:
+            log_std = obs[..., -pref_size:] @ log_std
         return network.apply(net_params(params), obs), log_std
 
     def entropy(dist):
         mean, log_std = dist
         per_dim = log_std + 0.5 * math.log(2 * math.pi * math.e)
-        return jnp.broadcast_to(jnp.sum(per_dim), mean.shape[:-1])
+        return jnp.broadcast_to(jnp.sum(per_dim, axis=-1), mean.shape[:-1])
 
     return Policy(
         init=init,

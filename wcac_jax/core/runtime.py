@@ -161,6 +161,7 @@ def make_policy(
     make_net: Callable[[int], networks.Network],
     log_std_init: float,
     learn_log_std: bool,
+    pref_size: int = 0,
 ) -> networks.Policy:
     """The actor for `env`'s action space: a Gaussian for continuous actions in
     `[-1, 1]^act` scaled to the environment's box (`env.action_bound`: a half-width, or
@@ -170,6 +171,8 @@ def make_policy(
     Args:
       make_net: `out -> network` with `out` outputs (the update's choice of network).
       log_std_init, learn_log_std: the Gaussian's initial log-std and whether it learns.
+      pref_size: `m > 0`: the Gaussian's log-std a function of the preference, the
+        inputs' last `m` entries (`networks.gaussian_policy`).
     """
     num_actions = getattr(env, "num_actions", None)
     out = int(num_actions) if num_actions else int(env.action_size)
@@ -177,7 +180,7 @@ def make_policy(
     if num_actions:
         return networks.categorical_policy(net)
     bound = getattr(env, "action_bound", 1.0)
-    return networks.gaussian_policy(net, out, log_std_init, learn_log_std, bound)
+    return networks.gaussian_policy(net, out, log_std_init, learn_log_std, bound, pref_size)
 
 
 def make_preprocess(
