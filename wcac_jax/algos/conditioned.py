@@ -63,12 +63,11 @@ class ConditionedConfig(PracticalConfig):
     pref_alpha: float = field(1.0, "Dirichlet concentration of the preferences drawn", positive)
     log_std_by_pref: bool = field(
         False,
-        "whether the policy's log-std depends on the preference (one per vertex of the "
-        "simplex, interpolated linearly) instead of being one for every preference",
+        "log-std per simplex vertex, linear in p",
     )
     conditioning: str = field(
         "concat",
-        "how the networks take the preference: 'concat' (appended to the observation) or "
+        "how the networks take p: 'concat' (appended to the observation) or "
         "'film' (appended, and also scaling and shifting every hidden layer)",
         one_of(CONDITIONINGS),
     )
