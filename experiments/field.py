@@ -52,6 +52,7 @@ import numpy as np
 from script_io import refuse_existing
 
 from wcac_jax import protocols
+from wcac_jax.sweep import presets
 from wcac_jax.sweep.outputs import json_bytes, write_atomic
 
 # The ablation's variants: fields of the conditioned update changed from its defaults
@@ -102,48 +103,6 @@ VARIANTS: dict[str, dict] = {
         "log_std_init": -1.0,
         "pref_alpha": 0.05,
     },
-    "e10m32-alpha0.5-sel5": {
-        "num_epochs": 10,
-        "num_minibatches": 32,
-        "pref_alpha": 0.5,
-        "select": (5, 40_960),
-    },
-    "e10m32-logstd-1-alpha0.05-sel5": {
-        "num_epochs": 10,
-        "num_minibatches": 32,
-        "log_std_init": -1.0,
-        "pref_alpha": 0.05,
-        "select": (5, 40_960),
-    },
-    "e10m32-alpha0.5-stdp": {
-        "num_epochs": 10,
-        "num_minibatches": 32,
-        "pref_alpha": 0.5,
-        "log_std_by_pref": True,
-    },
-    "e10m32-logstd-1-alpha0.05-stdp": {
-        "num_epochs": 10,
-        "num_minibatches": 32,
-        "log_std_init": -1.0,
-        "pref_alpha": 0.05,
-        "log_std_by_pref": True,
-    },
-    "m32-logstd-1-stdp": {"num_minibatches": 32, "log_std_init": -1.0, "log_std_by_pref": True},
-    "e10m32-alpha0.5-g995": {
-        "num_epochs": 10,
-        "num_minibatches": 32,
-        "pref_alpha": 0.5,
-        "gamma": 0.995,
-    },
-    "e10m32-logstd-1-alpha0.05-g995": {
-        "num_epochs": 10,
-        "num_minibatches": 32,
-        "log_std_init": -1.0,
-        "pref_alpha": 0.05,
-        "gamma": 0.995,
-    },
-    "m32-logstd-1-g995": {"num_minibatches": 32, "log_std_init": -1.0, "gamma": 0.995},
-    "m32-logstd-1-sel5": {"num_minibatches": 32, "log_std_init": -1.0, "select": (5, 40_960)},
     "e20m32": {"num_epochs": 20, "num_minibatches": 32},
     "e10m64": {"num_epochs": 10, "num_minibatches": 64},
     "e10m32-film": {"num_epochs": 10, "num_minibatches": 32, "conditioning": "film"},
@@ -154,6 +113,40 @@ VARIANTS: dict[str, dict] = {
         "conditioning": "film",
     },
 }
+
+# Variants named `<base>-<choice>`: a variant above (or built before in this list) with
+# one more choice, tried on the tasks whose fronts fall short of PGMORL's: each
+# preference's best of the last five policies (`presets.BEST_OF_LAST`), a log-std per
+# vertex of the simplex, PGMORL's gamma, a step size decayed linearly to 0 or doubled,
+# networks twice as wide, or twice the environments (each its own preference) for half
+# as many steps an iteration
+CHOICES: dict[str, dict] = {
+    "sel5": {"select": presets.BEST_OF_LAST},
+    "stdp": {"log_std_by_pref": True},
+    "g995": {"gamma": 0.995},
+    "anneal": {"anneal_lr": True},
+    "w256": {"width": 256},
+    "lr6e-4": {"learning_rate": 6e-4},
+    "n128": {"num_envs": 128, "rollout_steps": 64},
+}
+for _name in (
+    *(
+        f"{base}-{choice}"
+        for base in ("e10m32-alpha0.5", "e10m32-logstd-1-alpha0.05", "m32-logstd-1")
+        for choice in (
+            "sel5",
+            "stdp",
+            "g995",
+            "sel5-anneal",
+            "sel5-w256",
+            "sel5-lr6e-4",
+            "sel5-n128",
+        )
+    ),
+    "e10m32-sel5",
+):
+    _choice = next(c for c in CHOICES if _name.endswith(f"-{c}"))
+    VARIANTS[_name] = {**VARIANTS[_name[: -len(_choice) - 1]], **CHOICES[_choice]}
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 RESULTS = os.path.join(ROOT, "experiments", "results", "field")
