@@ -114,12 +114,12 @@ VARIANTS: dict[str, dict] = {
     },
 }
 
-# Variants named `<base>-<choice>`: a variant above (or built before in this list) with
-# one more choice, tried on the tasks whose fronts fall short of PGMORL's: each
-# preference's best of the last five policies (`presets.BEST_OF_LAST`), a log-std per
-# vertex of the simplex, PGMORL's gamma, a step size decayed linearly to 0 or doubled,
-# networks twice as wide, or twice the environments (each its own preference) for half
-# as many steps an iteration
+# Variants named `<base>-<choice>[-<choice>]`: a variant above with one or two more
+# choices, tried on the tasks whose fronts fall short of PGMORL's: each preference's best
+# of the last five policies (`presets.BEST_OF_LAST`), a log-std per vertex of the
+# simplex, PGMORL's gamma, a step size decayed linearly to 0 or doubled, networks twice
+# as wide, or twice the environments (each its own preference) for half as many steps an
+# iteration
 CHOICES: dict[str, dict] = {
     "sel5": {"select": presets.BEST_OF_LAST},
     "stdp": {"log_std_by_pref": True},
@@ -129,24 +129,17 @@ CHOICES: dict[str, dict] = {
     "lr6e-4": {"learning_rate": 6e-4},
     "n128": {"num_envs": 128, "rollout_steps": 64},
 }
-for _name in (
-    *(
-        f"{base}-{choice}"
-        for base in ("e10m32-alpha0.5", "e10m32-logstd-1-alpha0.05", "m32-logstd-1")
-        for choice in (
-            "sel5",
-            "stdp",
-            "g995",
-            "sel5-anneal",
-            "sel5-w256",
-            "sel5-lr6e-4",
-            "sel5-n128",
-        )
-    ),
-    "e10m32-sel5",
+_SHORT_OF_PGMORL = ("e10m32-alpha0.5", "e10m32-logstd-1-alpha0.05", "m32-logstd-1")
+_ON_TOP_OF_BEST = ("anneal", "w256", "lr6e-4", "n128")
+for _base, _chosen in (
+    *((b, (c,)) for b in _SHORT_OF_PGMORL for c in ("sel5", "stdp", "g995")),
+    *((b, ("sel5", c)) for b in _SHORT_OF_PGMORL for c in _ON_TOP_OF_BEST),
+    ("e10m32", ("sel5",)),
 ):
-    _choice = next(c for c in CHOICES if _name.endswith(f"-{c}"))
-    VARIANTS[_name] = {**VARIANTS[_name[: -len(_choice) - 1]], **CHOICES[_choice]}
+    VARIANTS["-".join((_base, *_chosen))] = {
+        **VARIANTS[_base],
+        **{k: v for c in _chosen for k, v in CHOICES[c].items()},
+    }
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 RESULTS = os.path.join(ROOT, "experiments", "results", "field")
