@@ -104,6 +104,25 @@ def test_preference_conditioned_env_appends_and_keeps_the_preference():
     assert float(jnp.min(drawn)) >= 0.0
 
 
+def test_every_episode_carries_its_own_preference_through_auto_resets():
+    """The time limit's auto-reset draws the next episode's preference, and every step of
+    that episode carries it, not the preference the environment started with."""
+    env = envs.make("deep_sea_treasure", episode_length=3)
+    cenv = conditioned.PreferenceConditioned(env, conditioned.dirichlet_preference(2))
+    venv = runtime.vectorize(cenv)
+    state = venv.reset(jax.random.split(jax.random.key(0), 4))
+    seen = []
+    for _ in range(9):  # three episodes of three steps (moving left at the left edge)
+        seen.append(np.asarray(state.obs[:, -2:]))
+        state = venv.step(state, jnp.full((4,), 2, jnp.int32))
+        assert float(jnp.max(state.info["terminal"])) == 0.0
+    seen = np.stack(seen)  # [9, N, 2]
+    for episode in range(3):
+        steps = seen[3 * episode : 3 * episode + 3]
+        np.testing.assert_array_equal(steps, np.broadcast_to(steps[0], steps.shape))
+    assert not np.any(np.isclose(seen[0], seen[3])) and not np.any(np.isclose(seen[3], seen[6]))
+
+
 @pytest.mark.parametrize(
     "alpha, variance, below_tenth",
     # each of two components is Beta(alpha, alpha): variance 1 / (4 (2 alpha + 1));

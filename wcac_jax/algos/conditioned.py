@@ -97,7 +97,10 @@ class PreferenceConditioned(Wrapper):
         )
 
     def step(self, state: State, action: jax.Array) -> State:
-        pref = state.info["pref"]
+        # the episode's preference, read from the observation: a time limit's auto-reset
+        # (`EpisodeWrapper`) replaces the observation with the new episode's, whose
+        # preference is drawn afresh, but carries the finished episode's `info` on
+        pref = state.obs[-self.m :]
         nstate = self.env.step(state.replace(obs=state.obs[: -self.m]), action)
         return nstate.replace(
             obs=jnp.concatenate([nstate.obs, pref]), info={**nstate.info, "pref": pref}

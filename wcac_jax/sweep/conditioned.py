@@ -252,6 +252,8 @@ def _front(config, run, prefs, evaluation, trained, eval_s) -> dict:
         wall_s=timing["wall_s"] + eval_s,
         conditioned={
             "networks": 1,
+            # each training episode's preference, drawn at its start and kept to its end
+            "preferences": "drawn per episode",
             "eval_prefs": n,
             "eval_env_steps": eval_steps,
             "eval_s": eval_s,
