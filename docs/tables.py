@@ -1100,6 +1100,26 @@ def v_selection_ge7(doc: Doc) -> str:
     return doc.link(text, os.path.dirname(R["select5_seeds"][0]))
 
 
+def v_field_preferences(doc: Doc) -> str:
+    """The field's tasks whose every seed records training episodes that each carry their
+    own preference (`front.json`'s `conditioned.preferences`), and the others: runs from
+    before that draw, whose environments kept their first preference from every later
+    episode's second step on."""
+    drawn, kept = [], []
+    for protocol in ("cmorl", "pgmorl"):
+        for task_dir in sorted(glob.glob(os.path.join(ROOT, R["field"], protocol, "*"))):
+            fronts = sorted(glob.glob(os.path.join(task_dir, "seed*", "front.json")))
+            if not fronts:
+                continue
+            marks = {_load(f).get("conditioned", {}).get("preferences") for f in fronts}
+            name = f"`{os.path.basename(task_dir)}` ({protocol})"
+            (drawn if marks == {"drawn per episode"} else kept).append(name)
+    return (
+        f"every episode its own preference: {', '.join(drawn) or 'none yet'}; "
+        f"from before it: {', '.join(kept) or 'none'}"
+    )
+
+
 def t_conditioned(doc: Doc) -> str:
     """Each arm's fronts per seed and their mean: morl-baselines' and the project's hypervolume,
     expected utility, non-dominated count, order, the ends, budget and wall time."""
@@ -1775,6 +1795,7 @@ VALUES: dict[str, Callable[[Doc], str]] = {
     "kuairand_ncis_few": v_kuairand_ncis_few,
     "default_wall_range": v_default_wall_range,
     "selection_ge7": v_selection_ge7,
+    "field_preferences": v_field_preferences,
     "mo_mujoco_thresholds": v_mo_mujoco_thresholds,
     "humanoid_ppo_seeds": v_humanoid_ppo_seeds,
 }

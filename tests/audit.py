@@ -3395,6 +3395,7 @@ DOC_VALUES: dict[str, Callable[[Repo, str, list], Findings] | str] = {
     "humanoid_ppo_speed": v_ppo,
     "humanoid_ppo_3M": v_ppo,
     "humanoid_ppo_seeds": v_ppo,
+    "field_preferences": "the field's tasks by how their runs drew preferences (names only)",
     "kuairand_alg1_gap": "the recommendation experiment: check_kuairand",
     "kuairand_alg1_gap_sets": "the recommendation experiment: check_kuairand",
     "kuairand_training": "the recommendation experiment's configuration",
