@@ -759,7 +759,7 @@ def test_plant_evaluation_steps_short_where_no_list_allows_it(tmp_path, monkeypa
     network's seed-0 front (and its summary) stating the count as the earlier code
     would have truncated it (8 x the whole part of its summed mean lengths); a field
     front of the ablation (its summed mean lengths a hair above a whole number) one step
-    per episode short; hopper-2obj's seed-0 front, listed 1 short, stating the full
+    per episode short; an ablation front of hopper-2obj, listed 1 short, stating the full
     count; and a listed shortfall the truncation does not give."""
     root = _copy(tmp_path)
     total, e, count = _lengths_and_count(COND)
@@ -778,7 +778,7 @@ def test_plant_evaluation_steps_short_where_no_list_allows_it(tmp_path, monkeypa
         d["protocol"]["eval_env_steps"] = count3 - e3
 
     _edit_json(root, sel3, short)
-    listed = FIELD_FRONT
+    listed = f"{FIELD}/ablation/cmorl/hopper-2obj/e10m32/seed0/front.json"
     assert audit.EARLIER_EVAL_STEPS[listed] == 1
     _, _, full = _lengths_and_count(listed)
     _edit_json(root, listed, lambda d: d["conditioned"].update(eval_env_steps=full))
