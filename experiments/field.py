@@ -119,7 +119,8 @@ VARIANTS: dict[str, dict] = {
 # of the last five policies (`presets.BEST_OF_LAST`), a log-std per vertex of the
 # simplex, PGMORL's gamma, a step size decayed linearly to 0 or doubled, networks twice
 # as wide, or twice the environments (each its own preference) for half as many steps an
-# iteration
+# iteration; and one preference per environment for the whole run instead of one per
+# episode (`env`, `pref_draw`)
 CHOICES: dict[str, dict] = {
     "sel5": {"select": presets.BEST_OF_LAST},
     "stdp": {"log_std_by_pref": True},
@@ -128,6 +129,7 @@ CHOICES: dict[str, dict] = {
     "w256": {"width": 256},
     "lr6e-4": {"learning_rate": 6e-4},
     "n128": {"num_envs": 128, "rollout_steps": 64},
+    "env": {"pref_draw": "environment"},
 }
 _SHORT_OF_PGMORL = ("e10m32-alpha0.5", "e10m32-logstd-1-alpha0.05", "m32-logstd-1")
 _ON_TOP_OF_BEST = ("anneal", "w256", "lr6e-4", "n128")
@@ -135,6 +137,8 @@ for _base, _chosen in (
     *((b, (c,)) for b in _SHORT_OF_PGMORL for c in ("sel5", "stdp", "g995")),
     *((b, ("sel5", c)) for b in _SHORT_OF_PGMORL for c in _ON_TOP_OF_BEST),
     ("e10m32", ("sel5",)),
+    ("e10m32", ("env",)),
+    ("e10m32-logstd-1-alpha0.05", ("sel5", "env")),
 ):
     VARIANTS["-".join((_base, *_chosen))] = {
         **VARIANTS[_base],

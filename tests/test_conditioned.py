@@ -123,6 +123,30 @@ def test_every_episode_carries_its_own_preference_through_auto_resets():
     assert not np.any(np.isclose(seen[0], seen[3])) and not np.any(np.isclose(seen[3], seen[6]))
 
 
+def test_each_environment_keeps_one_preference_for_the_run():
+    """With `keep` (`pref_draw="environment"`), every step of every episode of an
+    environment carries the preference of its first reset, the first step of a new
+    episode too; the environments' preferences differ."""
+    env = envs.make("deep_sea_treasure", episode_length=3)
+    cenv = conditioned.PreferenceConditioned(env, conditioned.dirichlet_preference(2), keep=True)
+    venv = runtime.vectorize(cenv)
+    state = venv.reset(jax.random.split(jax.random.key(0), 4))
+    first = np.asarray(state.obs[:, -2:])
+    for _ in range(9):  # three episodes of three steps
+        state = venv.step(state, jnp.full((4,), 2, jnp.int32))
+        np.testing.assert_array_equal(state.obs[:, -2:], first)
+        np.testing.assert_array_equal(state.info["pref"], first)
+        np.testing.assert_array_equal(state.info["first_obs"][:, -2:], first)
+    assert float(jnp.sum(state.done)) == 4.0  # the ninth step ended the third episodes
+    assert len({tuple(p) for p in first.tolist()}) == 4
+
+
+def test_config_draws_a_preference_per_episode_or_per_environment():
+    assert conditioned.ConditionedConfig().pref_draw == "episode"
+    with pytest.raises(ValueError, match="pref_draw"):
+        conditioned.ConditionedConfig(pref_draw="run")
+
+
 @pytest.mark.parametrize(
     "alpha, variance, below_tenth",
     # each of two components is Beta(alpha, alpha): variance 1 / (4 (2 alpha + 1));

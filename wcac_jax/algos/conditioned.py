@@ -3,10 +3,12 @@
 
 Every environment of the batch carries its own preference `p`, drawn at each episode
 start from Dirichlet(`pref_alpha`) on the simplex (`PreferenceConditioned`) and appended
-to its observation. Dirichlet(1) is the uniform distribution on the simplex: every part
-of the front is trained on equally often, in any number of objectives, and, unlike a
-stratified grid, no preference is privileged, so the network must interpolate between
-none. Per iteration, as the practical update does for one preference
+to its observation; with `pref_draw="environment"`, drawn at the environment's first
+reset and kept for the whole run, so that the network trains on `N` preferences, each
+with one environment's every episode. Dirichlet(1) is the uniform distribution on the
+simplex: every part of the front is trained on equally often, in any number of
+objectives, and, unlike a stratified grid, no preference is privileged, so the network
+must interpolate between none. Per iteration, as the practical update does for one preference
 (`wcac_jax.algos.practical`, whose pieces this reuses):
 
 1. rewards are scaled per objective by the running std `sigma` of the discounted return;
@@ -48,6 +50,7 @@ from wcac_jax.core.config import field, frozen_config, one_of, positive, positiv
 from wcac_jax.core.types import typed_key
 
 CONDITIONINGS = ("concat", "film")
+PREF_DRAWS = ("episode", "environment")
 
 
 @frozen_config
@@ -61,6 +64,11 @@ class ConditionedConfig(PracticalConfig):
     # convex hull of the deterministic one)
     learn_log_std: bool = field(True, "whether the policy's log-std is trained")
     pref_alpha: float = field(1.0, "Dirichlet concentration of the preferences drawn", positive)
+    pref_draw: str = field(
+        "episode",
+        "p drawn per 'episode' or per 'environment' (one for the whole run)",
+        one_of(PREF_DRAWS),
+    )
     log_std_by_pref: bool = field(
         False,
         "log-std per simplex vertex, linear in p",
@@ -81,12 +89,26 @@ def dirichlet_preference(m: int, alpha: float = 1.0):
 
 class PreferenceConditioned(Wrapper):
     """`env` with a preference appended to its observation (`[obs + m]`), drawn by
-    `sample_pref(key) -> [m]` at every reset and kept for the episode (`info["pref"]`)."""
+    `sample_pref(key) -> [m]` at every reset and kept for the episode (`info["pref"]`);
+    with `keep`, drawn at the environment's first reset and kept for every later episode
+    too (`next_episode`, which the time limit's auto-reset calls)."""
 
-    def __init__(self, env: Env, sample_pref):
+    def __init__(self, env: Env, sample_pref, keep: bool = False):
         super().__init__(env)
         self.sample_pref = sample_pref
+        self.keep = bool(keep)
         self.m = int(env.num_objectives)
+
+    def next_episode(self, finished: State, fresh: State) -> State:
+        """The state a new episode starts from, given the finished one's last state and
+        `fresh`, a reset's (`EpisodeWrapper` calls it at every auto-reset): `fresh` with
+        the finished episode's preference where `keep`, else `fresh` (its own draw)."""
+        if not self.keep:
+            return fresh
+        pref = finished.info["pref"]
+        return fresh.replace(
+            obs=jnp.concatenate([fresh.obs[: -self.m], pref]), info={**fresh.info, "pref": pref}
+        )
 
     def reset(self, rng: jax.Array) -> State:
         key_pref, key_env = jax.random.split(typed_key(rng))
@@ -270,7 +292,11 @@ def make_trainer(
     module docstring); `pref` arguments are ignored. `network_factory` builds the actor
     and the vector critic, each taking `(s, p)` (default: the practical update's)."""
     m, raw_size = int(env.num_objectives), int(env.observation_size)
-    cenv = PreferenceConditioned(env, dirichlet_preference(m, config.pref_alpha))
+    cenv = PreferenceConditioned(
+        env,
+        dirichlet_preference(m, config.pref_alpha),
+        keep=config.pref_draw == "environment",
+    )
     obs_size = raw_size + m
     j_ub = jnp.asarray(runtime.resolve_j_ub(config, env), jnp.float32)
     venv = runtime.vectorize(cenv)

@@ -16,7 +16,9 @@ over `N` environments and over preferences):
   whole run). The keys are carried in the state (`info["reset_key"]`, raw key data) and
   split once per step, so a run is deterministic given its first key and does not depend
   on how it is chunked;
-- `info["first_obs"]` is the observation the current episode started from.
+- `info["first_obs"]` is the observation the current episode started from;
+- an environment with a `next_episode(finished, fresh)` method (the preference-
+  conditioned wrapper) decides what a finished episode passes on to the fresh one.
 
 Only the Brax `Env` API is used (`env.reset(key) -> State`, `env.step(state, action)`);
 the new episode's `pipeline_state` and `obs` are selected leaf by leaf, whatever they hold.
@@ -92,6 +94,11 @@ class EpisodeWrapper(Wrapper):
         done = jnp.maximum(terminal, time_up)
         key_next, key_env = jax.random.split(jax.random.wrap_key_data(state.info["reset_key"]))
         fresh = self.env.reset(key_env)
+        # what the finished episode passes on to the next, where the environment says so
+        # (`next_episode(finished, fresh)`, e.g. a preference kept for the whole run)
+        next_episode = getattr(self.env, "next_episode", None)
+        if next_episode is not None:
+            fresh = next_episode(nstate, fresh)
 
         def select(new, old):
             return jnp.where(done > 0, new, old)

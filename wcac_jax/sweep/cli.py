@@ -300,7 +300,7 @@ def build_parser(argv=None, full: bool = False) -> argparse.ArgumentParser:
     g.add_argument(
         "--conditioned",
         action="store_true",
-        help="train ONE network (--preset conditioned) on preferences drawn per episode",
+        help="the same as --preset conditioned",
     )
     g.add_argument(
         "--total-steps",
@@ -527,7 +527,7 @@ def add_selection_flags(parser, default: tuple[int, int] | None = None) -> None:
         type=int,
         default=None,
         metavar="K",
-        help="report each preference's best of its last K policies" + shown,
+        help="each preference's best of its last K policies" + shown,
     )
     parser.add_argument(
         "--select-every",
