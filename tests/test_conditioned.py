@@ -248,6 +248,7 @@ def test_cli_trains_one_network_and_evaluates_it_at_every_preference(tmp_path, c
     per_iteration = conditioned.ConditionedConfig().env_steps_per_iteration
     assert 40_000 <= front["env_steps_total"] < 40_000 + per_iteration
     assert front["conditioned"]["networks"] == 1 and front["conditioned"]["eval_prefs"] == 5
+    assert front["conditioned"]["preferences"] == "drawn per episode"
     # the evaluation's steps: 8 episodes per preference, each row's mean length times 8
     steps = 8 * sum(r["episode_length"] for r in front["prefs"])
     assert front["conditioned"]["eval_env_steps"] == round(steps) <= 5 * 8 * 500

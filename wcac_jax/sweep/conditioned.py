@@ -252,8 +252,9 @@ def _front(config, run, prefs, evaluation, trained, eval_s) -> dict:
         wall_s=timing["wall_s"] + eval_s,
         conditioned={
             "networks": 1,
-            # each training episode's preference, drawn at its start and kept to its end
-            "preferences": "drawn per episode",
+            # how the training drew its preferences: "drawn per episode" (at its start,
+            # kept to its end) or "drawn per environment" (one for the whole run)
+            "preferences": f"drawn per {train.pref_draw}",
             "eval_prefs": n,
             "eval_env_steps": eval_steps,
             "eval_s": eval_s,
