@@ -105,18 +105,12 @@ class PreferenceConditioned(Wrapper):
         the finished episode's preference where `keep`, else `fresh` (its own draw)."""
         if not self.keep:
             return fresh
-        pref = finished.info["pref"]
-        return fresh.replace(
-            obs=jnp.concatenate([fresh.obs[: -self.m], pref]), info={**fresh.info, "pref": pref}
-        )
+        return _carrying(fresh, fresh.obs[: -self.m], finished.info["pref"])
 
     def reset(self, rng: jax.Array) -> State:
         key_pref, key_env = jax.random.split(typed_key(rng))
         state = self.env.reset(key_env)
-        pref = self.sample_pref(key_pref)
-        return state.replace(
-            obs=jnp.concatenate([state.obs, pref]), info={**state.info, "pref": pref}
-        )
+        return _carrying(state, state.obs, self.sample_pref(key_pref))
 
     def step(self, state: State, action: jax.Array) -> State:
         # the episode's preference, read from the observation: a time limit's auto-reset
@@ -124,13 +118,17 @@ class PreferenceConditioned(Wrapper):
         # preference is drawn afresh, but carries the finished episode's `info` on
         pref = state.obs[-self.m :]
         nstate = self.env.step(state.replace(obs=state.obs[: -self.m]), action)
-        return nstate.replace(
-            obs=jnp.concatenate([nstate.obs, pref]), info={**nstate.info, "pref": pref}
-        )
+        return _carrying(nstate, nstate.obs, pref)
 
     @property
     def observation_size(self) -> int:
         return int(self.env.observation_size) + self.m
+
+
+def _carrying(state: State, raw_obs: chex.Array, pref: chex.Array) -> State:
+    """`state` whose observation is `raw_obs` `[obs]` with `pref` `[m]` appended, and
+    whose `info["pref"]` is `pref`."""
+    return state.replace(obs=jnp.concatenate([raw_obs, pref]), info={**state.info, "pref": pref})
 
 
 def episode_start_obs(first_obs: chex.Array, obs: chex.Array, done: chex.Array) -> chex.Array:
