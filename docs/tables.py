@@ -1100,12 +1100,20 @@ def v_selection_ge7(doc: Doc) -> str:
     return doc.link(text, os.path.dirname(R["select5_seeds"][0]))
 
 
+# how `front.json`'s `conditioned.preferences` reads in the documents
+_PREFERENCE_DRAWS = {
+    "drawn per episode": "every episode its own preference",
+    "drawn per environment": "one preference per environment for the whole run",
+}
+
+
 def v_field_preferences(doc: Doc) -> str:
-    """The field's tasks whose every seed records training episodes that each carry their
-    own preference (`front.json`'s `conditioned.preferences`), and the others: runs from
-    before that draw, whose environments kept their first preference from every later
-    episode's second step on."""
-    drawn, kept = [], []
+    """The field's tasks by how every seed's training drew its preferences (`front.json`'s
+    `conditioned.preferences`), and the others: runs from before that was recorded, whose
+    environments kept their first preference from every later episode's second step on
+    (or, should a task's seeds record different draws, those seeds together)."""
+    groups: dict[str, list[str]] = {label: [] for label in _PREFERENCE_DRAWS.values()}
+    before = []
     for protocol in ("cmorl", "pgmorl"):
         for task_dir in sorted(glob.glob(os.path.join(ROOT, R["field"], protocol, "*"))):
             fronts = sorted(glob.glob(os.path.join(task_dir, "seed*", "front.json")))
@@ -1113,10 +1121,15 @@ def v_field_preferences(doc: Doc) -> str:
                 continue
             marks = {_load(f).get("conditioned", {}).get("preferences") for f in fronts}
             name = f"`{os.path.basename(task_dir)}` ({protocol})"
-            (drawn if marks == {"drawn per episode"} else kept).append(name)
-    return (
-        f"every episode its own preference: {', '.join(drawn) or 'none yet'}; "
-        f"from before it: {', '.join(kept) or 'none'}"
+            (mark,) = marks if len(marks) == 1 else (None,)
+            label = _PREFERENCE_DRAWS.get(mark)
+            (groups[label] if label else before).append(name)
+    drawn = [f"{label}: {', '.join(names)}" for label, names in groups.items() if names]
+    return "; ".join(
+        [
+            *(drawn or ["every episode its own preference: none yet"]),
+            f"from before it: {', '.join(before) or 'none'}",
+        ]
     )
 
 
