@@ -1102,8 +1102,8 @@ def v_selection_ge7(doc: Doc) -> str:
 
 # how `front.json`'s `conditioned.preferences` reads in the documents
 _PREFERENCE_DRAWS = {
-    "drawn per episode": "every episode its own preference",
-    "drawn per environment": "one preference per environment for the whole run",
+    "drawn per environment": "trained again with one preference per environment",
+    "drawn per episode": "trained again with each episode's own preference",
 }
 
 
@@ -1127,8 +1127,8 @@ def v_field_preferences(doc: Doc) -> str:
     drawn = [f"{label}: {', '.join(names)}" for label, names in groups.items() if names]
     return "; ".join(
         [
-            *(drawn or ["every episode its own preference: none yet"]),
-            f"from before it: {', '.join(before) or 'none'}",
+            *(drawn or ["trained again: none yet"]),
+            f"still from before: {', '.join(before) or 'none'}",
         ]
     )
 

@@ -120,7 +120,8 @@ VARIANTS: dict[str, dict] = {
 # simplex, PGMORL's gamma, a step size decayed linearly to 0 or doubled, networks twice
 # as wide, or twice the environments (each its own preference) for half as many steps an
 # iteration; and one preference per environment for the whole run instead of one per
-# episode (`env`, `pref_draw`)
+# episode (`env`, `pref_draw`), or, stated where the presets draw per environment, one
+# per episode (`episode`, the defaults' draw)
 CHOICES: dict[str, dict] = {
     "sel5": {"select": presets.BEST_OF_LAST},
     "stdp": {"log_std_by_pref": True},
@@ -130,6 +131,7 @@ CHOICES: dict[str, dict] = {
     "lr6e-4": {"learning_rate": 6e-4},
     "n128": {"num_envs": 128, "rollout_steps": 64},
     "env": {"pref_draw": "environment"},
+    "episode": {"pref_draw": "episode"},
 }
 _SHORT_OF_PGMORL = ("e10m32-alpha0.5", "e10m32-logstd-1-alpha0.05", "m32-logstd-1")
 _ON_TOP_OF_BEST = ("anneal", "w256", "lr6e-4", "n128")
@@ -139,6 +141,8 @@ for _base, _chosen in (
     ("e10m32", ("sel5",)),
     ("e10m32", ("env",)),
     ("e10m32-logstd-1-alpha0.05", ("sel5", "env")),
+    ("e10m32", ("episode",)),
+    ("e10m32-logstd-1-alpha0.05", ("sel5", "episode")),
 ):
     VARIANTS["-".join((_base, *_chosen))] = {
         **VARIANTS[_base],

@@ -1468,6 +1468,18 @@ def ablation_rows(repo: Repo, base: str) -> dict:
     return rows
 
 
+def _trained(front: dict, key: str):
+    """The value of the conditioned update's field `key` that `front`'s run trained: its
+    configuration's; a run from before `pref_draw` existed states its draw in
+    `front.json`'s `conditioned.preferences` alone (`drawn per episode`; runs from before
+    that record state neither)."""
+    train = front["config"]["train"]
+    if key in train or key != "pref_draw":
+        return train.get(key)
+    mark = front.get("conditioned", {}).get("preferences", "")
+    return mark.removeprefix("drawn per ") or None
+
+
 def check_changes(where: str, changes, fronts: list, defaults: list) -> Findings:
     """A variant's stated changes are what its runs trained: each named field of the
     conditioned update as stated (`select`: `[select_last, select_every]`; without it,
@@ -1486,7 +1498,9 @@ def check_changes(where: str, changes, fronts: list, defaults: list) -> Findings
             [config["select_last"], config["select_every"]],
             list(changes.get("select", [1, 0])),
         )
-        out.equal(f"{w} changes", {k: train.get(k) for k in named}, {k: changes[k] for k in named})
+        out.equal(
+            f"{w} changes", {k: _trained(f.data, k) for k in named}, {k: changes[k] for k in named}
+        )
         for g in defaults:
             base = g.data["config"]["train"]
             # a field one of them predates (written before it existed) is not compared

@@ -75,6 +75,8 @@ def test_every_tasks_run_trains_the_protocols_budget_in_whole_iterations(protoco
     assert config.eval_episodes == task.eval_episodes
     assert config.env_options["episode_length"] == task.episode_length
     assert len(config.prefs) == len(spec.eval_prefs(task.num_objectives))
+    # every preset trains on one preference per environment for the whole run
+    assert config.train.pref_draw == "environment"
 
 
 def test_published_budgets_and_episodes():
@@ -175,6 +177,8 @@ def test_protocol_run_end_to_end(toy_protocol, tmp_path, capsys):
     assert score["env_steps_trained"] == 4096 == front["env_steps_total"]
     assert score["eval_prefs"] == 5 and front["config"]["eval_episodes"] == 2
     assert front["eval_gamma"] == 0.99
+    # a task without a preset of its own trains the defaults, one preference per environment
+    assert front["conditioned"]["preferences"] == "drawn per environment"
     returns = [row["discounted_return"] for row in front["prefs"]]
     assert score["hv"] == pytest.approx(TOY.score(returns)["hv"])
     # a finished training whose front was not written: `--resume` alone evaluates it at
