@@ -358,8 +358,9 @@ class ProtocolPreset:
 # Every preset draws one preference per environment, at its first reset, and keeps it
 # for the whole run (`pref_draw="environment"`): the network trains on a fixed set of
 # `num_envs` preferences. Drawing one per episode (the conditioned update's default) did
-# worse with the presets above: on C-MORL's hopper-2obj 1.25e5 against 1.32e5 over seeds
-# 0-4, on COLA's half-cheetah 4.17e6 against 4.40e6 at seeds 0 and 1.
+# worse with the presets above on C-MORL's hopper-2obj (1.25e5 against 1.32e5 over seeds
+# 0-4) and COLA's half-cheetah (4.17e6 against 4.40e6 at seeds 0 and 1), and level on
+# C-MORL's hopper (2.00e7 against 1.96e7 over seeds 0-4).
 PER_ENV = ConditionedConfig(pref_draw="environment")
 MORE_UPDATES = PER_ENV.replace(num_epochs=10, num_minibatches=32)
 SMALL_NOISE = PER_ENV.replace(num_minibatches=32, log_std_init=-1.0)
