@@ -77,6 +77,7 @@ VARIANTS: dict[str, dict] = {
     "m32-logstd-1-film": {"num_minibatches": 32, "log_std_init": -1.0, "conditioning": "film"},
     "e10m32-mu10": {"num_epochs": 10, "num_minibatches": 32, "mu": 10.0},
     "e10m32-mu3": {"num_epochs": 10, "num_minibatches": 32, "mu": 3.0},
+    "e10m32-mu30": {"num_epochs": 10, "num_minibatches": 32, "mu": 30.0},
     "e10m32-sel3": {"num_epochs": 10, "num_minibatches": 32, "select": (3, 81_920)},
     "m32-logstd-1-sel3": {"num_minibatches": 32, "log_std_init": -1.0, "select": (3, 81_920)},
     "m32-logstd-1-sel2": {"num_minibatches": 32, "log_std_init": -1.0, "select": (2, 81_920)},
@@ -142,6 +143,7 @@ for _base, _chosen in (
     ("e10m32", ("env",)),
     ("e10m32-logstd-1-alpha0.05", ("sel5", "env")),
     ("e10m32", ("episode",)),
+    ("e10m32-mu30", ("env",)),
     ("e10m32-logstd-1-alpha0.05", ("sel5", "episode")),
 ):
     VARIANTS["-".join((_base, *_chosen))] = {
