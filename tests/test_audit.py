@@ -782,7 +782,7 @@ def test_plant_evaluation_steps_short_where_no_list_allows_it(tmp_path, monkeypa
     assert audit.EARLIER_EVAL_STEPS[listed] == 1
     _, _, full = _lengths_and_count(listed)
     _edit_json(root, listed, lambda d: d["conditioned"].update(eval_env_steps=full))
-    wrong = f"{FIELD}/cmorl/walker2d/seed0/front.json"
+    wrong = f"{FIELD}/cmorl/humanoid/seed0/front.json"
     monkeypatch.setitem(audit.EARLIER_EVAL_STEPS, wrong, audit.EARLIER_EVAL_STEPS[wrong] + 2)
     _fails(
         root,
@@ -791,6 +791,6 @@ def test_plant_evaluation_steps_short_where_no_list_allows_it(tmp_path, monkeypa
         rf"{sel3} eval_env_steps: states {count3 - e3}, its data give {count3}$",
         rf"{sel3} protocol eval_env_steps: states {count3 - e3}, its data give {count3}$",
         rf"{listed} eval_env_steps: states {full}, its data give {full - 1}$",
-        rf"EARLIER_EVAL_STEPS {wrong}: lists 5 steps short of \d+, the earlier code's "
-        r"truncation gives \[3\]",
+        rf"EARLIER_EVAL_STEPS {wrong}: lists 10 steps short of \d+, the earlier code's "
+        r"truncation gives \[8\]",
     )
