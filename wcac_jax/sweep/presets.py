@@ -364,83 +364,62 @@ class ProtocolPreset:
 PER_ENV = ConditionedConfig(pref_draw="environment")
 MORE_UPDATES = PER_ENV.replace(num_epochs=10, num_minibatches=32)
 SMALL_NOISE = PER_ENV.replace(num_minibatches=32, log_std_init=-1.0)
-_PER_ENV_NOTE = ", one preference per environment for the whole run"
-_PER_EPISODE_NOTE = ", one per episode"
-_DEFAULTS = ProtocolPreset(
-    PER_ENV,
-    note="one preference per environment for the whole run (the defaults: one per episode)",
-)
-_MORE_UPDATES = ProtocolPreset(
-    MORE_UPDATES,
-    note="10 epochs of 32 minibatches"
-    + _PER_ENV_NOTE
-    + " (the defaults: 5 of 16"
-    + _PER_EPISODE_NOTE
-    + ")",
-)
+
+
+def _note(changes: str, defaults: str, best_of_last: bool = False) -> str:
+    """A preset's note: its `changes` from the conditioned update's defaults, then the
+    draw every preset takes (and, with `best_of_last`, the selection), and in brackets
+    what the defaults have instead (`defaults`, then one preference per episode and the
+    final network)."""
+    chosen = [changes, "one preference per environment for the whole run"]
+    instead = [defaults, "one per episode"]
+    if best_of_last:
+        chosen.append("each preference's best of the last 5 policies 5 iterations apart")
+        instead.append("the final network")
+    return f"{', '.join(filter(None, chosen))} (the defaults: {', '.join(filter(None, instead))})"
+
+
+_DEFAULTS = ProtocolPreset(PER_ENV, note=_note("", ""))
+_MORE_UPDATES = ProtocolPreset(MORE_UPDATES, note=_note("10 epochs of 32 minibatches", "5 of 16"))
 # On C-MORL's two hoppers a smoother direction, mu = 30 in the objectives' discounted
 # units (about a tenth of a hopper's discounted return; at the defaults' 1 the weights
 # are nearly one-hot), raised the hypervolume at seeds 0-2, each at one preference per
 # environment: hopper 1.89e7 -> 2.13e7, hopper-2obj 1.32e5 -> 1.34e5.
 _HOPPER = ProtocolPreset(
-    MORE_UPDATES.replace(mu=30.0),
-    note="10 epochs of 32 minibatches, mu 30"
-    + _PER_ENV_NOTE
-    + " (the defaults: 5 of 16, 1"
-    + _PER_EPISODE_NOTE
-    + ")",
+    MORE_UPDATES.replace(mu=30.0), note=_note("10 epochs of 32 minibatches, mu 30", "5 of 16, 1")
 )
 _SMALL_NOISE = ProtocolPreset(
-    SMALL_NOISE,
-    note="32 minibatches and initial log-std -1"
-    + _PER_ENV_NOTE
-    + " (the defaults: 16 and 0"
-    + _PER_EPISODE_NOTE
-    + ")",
+    SMALL_NOISE, note=_note("32 minibatches and initial log-std -1", "16 and 0")
 )
 # each preference's best of the network's last five policies, five iterations apart
 BEST_OF_LAST = (5, 5 * MORE_UPDATES.env_steps_per_iteration)
-_BEST_OF_LAST_NOTE = ", each preference's best of the last 5 policies 5 iterations apart"
 _MORE_UPDATES_ENDS = ProtocolPreset(
     MORE_UPDATES.replace(pref_alpha=0.5),
     BEST_OF_LAST,
-    note="10 epochs of 32 minibatches, preferences from Dirichlet(0.5)"
-    + _PER_ENV_NOTE
-    + _BEST_OF_LAST_NOTE
-    + " (the defaults: 5 of 16, Dirichlet(1)"
-    + _PER_EPISODE_NOTE
-    + ", the final network)",
+    note=_note(
+        "10 epochs of 32 minibatches, preferences from Dirichlet(0.5)",
+        "5 of 16, Dirichlet(1)",
+        best_of_last=True,
+    ),
 )
 _SMALL_NOISE_ENDS = ProtocolPreset(
     SMALL_NOISE.replace(num_epochs=10, pref_alpha=0.05),
     BEST_OF_LAST,
-    note="10 epochs of 32 minibatches, initial log-std -1, preferences from "
-    "Dirichlet(0.05)"
-    + _PER_ENV_NOTE
-    + _BEST_OF_LAST_NOTE
-    + " (the defaults: 5 of 16, 0, Dirichlet(1)"
-    + _PER_EPISODE_NOTE
-    + ", the final network)",
+    note=_note(
+        "10 epochs of 32 minibatches, initial log-std -1, preferences from Dirichlet(0.05)",
+        "5 of 16, 0, Dirichlet(1)",
+        best_of_last=True,
+    ),
 )
 _SMALL_NOISE_BEST = ProtocolPreset(
     SMALL_NOISE,
     BEST_OF_LAST,
-    note="32 minibatches and initial log-std -1"
-    + _PER_ENV_NOTE
-    + _BEST_OF_LAST_NOTE
-    + " (the defaults: 16 and 0"
-    + _PER_EPISODE_NOTE
-    + ", the final network)",
+    note=_note("32 minibatches and initial log-std -1", "16 and 0", best_of_last=True),
 )
 _MORE_UPDATES_BEST = ProtocolPreset(
     MORE_UPDATES,
     BEST_OF_LAST,
-    note="10 epochs of 32 minibatches"
-    + _PER_ENV_NOTE
-    + _BEST_OF_LAST_NOTE
-    + " (the defaults: 5 of 16"
-    + _PER_EPISODE_NOTE
-    + ", the final network)",
+    note=_note("10 epochs of 32 minibatches", "5 of 16", best_of_last=True),
 )
 _TASK_PRESETS = {
     **dict.fromkeys(("hopper-2obj", "hopper"), _HOPPER),
