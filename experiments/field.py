@@ -115,14 +115,15 @@ VARIANTS: dict[str, dict] = {
     },
 }
 
-# Variants named `<base>-<choice>[-<choice>]`: a variant above with one or two more
+# Variants named `<base>-<choice>[-<choice>]`: a variant above with one or more
 # choices, tried on the tasks whose fronts fall short of PGMORL's: each preference's best
 # of the last five policies (`presets.BEST_OF_LAST`), a log-std per vertex of the
 # simplex, PGMORL's gamma, a step size decayed linearly to 0 or doubled, networks twice
 # as wide, or twice the environments (each its own preference) for half as many steps an
 # iteration; and one preference per environment for the whole run instead of one per
 # episode (`env`, `pref_draw`), or, stated where the presets draw per environment, one
-# per episode (`episode`, the defaults' draw)
+# per episode (`episode`, the defaults' draw); and the smoother direction C-MORL's hoppers
+# took (`mu30`) on the tasks still short of PGMORL's column, at their presets' choices
 CHOICES: dict[str, dict] = {
     "sel5": {"select": presets.BEST_OF_LAST},
     "stdp": {"log_std_by_pref": True},
@@ -133,6 +134,7 @@ CHOICES: dict[str, dict] = {
     "n128": {"num_envs": 128, "rollout_steps": 64},
     "env": {"pref_draw": "environment"},
     "episode": {"pref_draw": "episode"},
+    "mu30": {"mu": 30.0},
 }
 _SHORT_OF_PGMORL = ("e10m32-alpha0.5", "e10m32-logstd-1-alpha0.05", "m32-logstd-1")
 _ON_TOP_OF_BEST = ("anneal", "w256", "lr6e-4", "n128")
@@ -145,6 +147,9 @@ for _base, _chosen in (
     ("e10m32", ("episode",)),
     ("e10m32-mu30", ("env",)),
     ("e10m32-logstd-1-alpha0.05", ("sel5", "episode")),
+    ("e10m32-alpha0.5", ("sel5", "env", "mu30")),
+    ("e10m32-logstd-1-alpha0.05", ("sel5", "env", "mu30")),
+    ("m32-logstd-1", ("sel5", "env", "mu30")),
 ):
     VARIANTS["-".join((_base, *_chosen))] = {
         **VARIANTS[_base],
