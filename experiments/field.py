@@ -123,7 +123,7 @@ VARIANTS: dict[str, dict] = {
 # iteration; and one preference per environment for the whole run instead of one per
 # episode (`env`, `pref_draw`), or, stated where the presets draw per environment, one
 # per episode (`episode`, the defaults' draw); and the smoother direction C-MORL's hoppers
-# took (`mu30`) on the tasks still short of PGMORL's column, at their presets' choices
+# took (`mu30`) at other presets' choices: the ants' and the tasks still short of PGMORL's
 CHOICES: dict[str, dict] = {
     "sel5": {"select": presets.BEST_OF_LAST},
     "stdp": {"log_std_by_pref": True},
@@ -150,6 +150,7 @@ for _base, _chosen in (
     ("e10m32-alpha0.5", ("sel5", "env", "mu30")),
     ("e10m32-logstd-1-alpha0.05", ("sel5", "env", "mu30")),
     ("m32-logstd-1", ("sel5", "env", "mu30")),
+    ("m32-logstd-1", ("env", "mu30")),
 ):
     VARIANTS["-".join((_base, *_chosen))] = {
         **VARIANTS[_base],
