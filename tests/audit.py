@@ -772,7 +772,6 @@ EARLIER_EVAL_STEPS = {
     f"{_FIELD_DIR}/ablation/cmorl/hopper/e10m32/seed0/front.json": 9,
     f"{_FIELD_DIR}/ablation/cmorl/humanoid/default/seed0/front.json": 8,
     f"{_FIELD_DIR}/ablation/cmorl/humanoid/e10m32/seed0/front.json": 5,
-    f"{_FIELD_DIR}/cmorl/ant/seed0/front.json": 8,
     f"{_FIELD_DIR}/cmorl/humanoid/seed0/front.json": 8,
 }
 
