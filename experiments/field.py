@@ -151,6 +151,7 @@ for _base, _chosen in (
     ("e10m32-logstd-1-alpha0.05", ("sel5", "env", "mu30")),
     ("m32-logstd-1", ("sel5", "env", "mu30")),
     ("m32-logstd-1", ("env", "mu30")),
+    ("m32-logstd-1", ("env",)),
 ):
     VARIANTS["-".join((_base, *_chosen))] = {
         **VARIANTS[_base],

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from wcac_jax import protocols
-from wcac_jax.sweep import cli
+from wcac_jax.algos import ConditionedConfig
+from wcac_jax.sweep import cli, presets
 from wcac_jax.sweep.protocol import protocol_sweep
 
 
@@ -77,6 +78,38 @@ def test_every_tasks_run_trains_the_protocols_budget_in_whole_iterations(protoco
     assert len(config.prefs) == len(spec.eval_prefs(task.num_objectives))
     # every preset trains on one preference per environment for the whole run
     assert config.train.pref_draw == "environment"
+
+
+# how a protocol preset's note says each field it changes from the conditioned defaults
+_SAID = {
+    "num_epochs": "{:g} epochs",
+    "num_minibatches": "{:g} minibatches",
+    "log_std_init": "initial log-std {:g}",
+    "pref_alpha": "Dirichlet({:g})",
+    "mu": "mu {:g}",
+    "pref_draw": "one preference per {}",
+}
+
+
+@pytest.mark.parametrize("protocol,env", sorted({*presets.PROTOCOL_PRESETS, ("cmorl", "humanoid")}))
+def test_every_protocol_presets_note_says_what_it_changes(protocol, env):
+    """A preset's note names each field its configuration changes from the conditioned
+    update's defaults, with the value, and its choice among the last policies; a
+    humanoid (no preset of its own) trains the defaults but for the draw."""
+    preset = presets.protocol_preset(protocol, env)
+    defaults = ConditionedConfig()
+    changed = {
+        name: getattr(preset.config, name)
+        for name in defaults.field_docs()
+        if getattr(preset.config, name) != getattr(defaults, name)
+    }
+    assert set(changed) <= set(_SAID), changed
+    for name, value in changed.items():
+        assert _SAID[name].format(value) in preset.note, (name, value, preset.note)
+    best_of = f"best of the last {preset.selection[0]} policies"
+    assert (best_of in preset.note) == (preset.selection != (1, 0)), preset.note
+    if env == "humanoid":
+        assert changed == {"pref_draw": "environment"}
 
 
 def test_published_budgets_and_episodes():
