@@ -91,11 +91,14 @@ _SAID = {
 }
 
 
-@pytest.mark.parametrize("protocol,env", sorted({*presets.PROTOCOL_PRESETS, ("cmorl", "humanoid")}))
+@pytest.mark.parametrize(
+    "protocol,env", [(p.name, t.env) for p in protocols.PROTOCOLS.values() for t in p.tasks]
+)
 def test_every_protocol_presets_note_says_what_it_changes(protocol, env):
-    """A preset's note names each field its configuration changes from the conditioned
-    update's defaults, with the value, and its choice among the last policies; a
-    humanoid (no preset of its own) trains the defaults but for the draw."""
+    """A task's preset note names each field its configuration changes from the
+    conditioned update's defaults, with the value, and its choice among the last
+    policies; a task without a preset of its own (the humanoids) trains the defaults but
+    for the draw."""
     preset = presets.protocol_preset(protocol, env)
     defaults = ConditionedConfig()
     changed = {
@@ -108,7 +111,7 @@ def test_every_protocol_presets_note_says_what_it_changes(protocol, env):
         assert _SAID[name].format(value) in preset.note, (name, value, preset.note)
     best_of = f"best of the last {preset.selection[0]} policies"
     assert (best_of in preset.note) == (preset.selection != (1, 0)), preset.note
-    if env == "humanoid":
+    if (protocol, env) not in presets.PROTOCOL_PRESETS:
         assert changed == {"pref_draw": "environment"}
 
 
