@@ -152,6 +152,8 @@ for _base, _chosen in (
     ("m32-logstd-1", ("sel5", "env", "mu30")),
     ("m32-logstd-1", ("env", "mu30")),
     ("m32-logstd-1", ("env",)),
+    ("default", ("env", "mu30")),
+    ("e10m32-alpha0.5", ("sel5", "env")),
 ):
     VARIANTS["-".join((_base, *_chosen))] = {
         **VARIANTS[_base],
