@@ -334,9 +334,8 @@ class ProtocolPreset:
 # humanoid the defaults stand for the whole episode at every preference and the extra
 # updates do worse. Each robot's other tasks (3 objectives, PGMORL's and COLA's models)
 # take its preset (at mu 1 but for C-MORL's hoppers, the 3-objective ants and PGMORL's
-# walker, below);
-# walker2d and swimmer the hopper's, halfcheetah the ants' (its v5 default's smaller
-# noise, `HALFCHEETAH`), each at mu 1.
+# walker, below); walker2d and swimmer the hopper's, halfcheetah the ants' (its v5
+# default's smaller noise, `HALFCHEETAH`), each at mu 1.
 # PGMORL's 3-objective hopper is the exception: on PGMORL's protocol the hopper's preset
 # leaves its policies falling within 60-250 steps (HV 7.9e8 at seed 0) where the
 # defaults reach 2.5e10 and the ants' smaller noise 2.7e10; its energy objective,
@@ -406,7 +405,8 @@ _ANT = ProtocolPreset(
 BEST_OF_LAST = (5, 5 * MORE_UPDATES.env_steps_per_iteration)
 # On PGMORL's walker the same smoothing raised the front at seeds 0-2 (one preference
 # per environment): 3.58e6 -> 3.87e6 (3.61, 3.88, 3.24e6 -> 3.37, 4.36, 3.87e6); on
-# COLA's half-cheetah it did not (4.38e6 -> 4.23e6 at seeds 0-2), which keeps mu 1.
+# COLA's half-cheetah it did not (4.38e6 -> 4.23e6 at seeds 0-2), nor on PGMORL's
+# 3-objective hopper at seed 0 (2.63e10 -> 2.48e10); both keep mu 1.
 _WALKER_PGMORL = ProtocolPreset(
     MORE_UPDATES.replace(pref_alpha=0.5, mu=30.0),
     BEST_OF_LAST,
